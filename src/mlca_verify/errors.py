@@ -1,0 +1,34 @@
+"""The project's one exception tree. Every message carries its location and the bad value."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Loc:
+    """A position in a source file (1-based line and column)."""
+
+    file: str
+    line: int
+    col: int
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.col}"
+
+
+class MlcaError(Exception):
+    """Base of every error the toolkit raises on purpose."""
+
+
+class SpecError(MlcaError):
+    """A spec file that cannot be loaded: bad TOML, bad shape, or bad meaning."""
+
+    def __init__(self, loc: Loc, message: str) -> None:
+        super().__init__(f"{loc}: error: {message}")
+        self.loc = loc
+        self.message = message
+
+
+class UsageError(MlcaError):
+    """A command used wrongly (missing file, incompatible options)."""

@@ -1,0 +1,36 @@
+"""The z3 engine: every check of a machine, and the comparison of two machines."""
+
+from __future__ import annotations
+
+import time
+
+from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.equiv import compare
+from mlca_verify.logic.results import Result
+from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
+from mlca_verify.model import Machine
+
+__all__ = ["check_all", "compare"]
+
+
+def check_all(machine: Machine, timeout_ms: int = DEFAULT_TIMEOUT_MS) -> list[Result]:
+    """Built-in checks, declared invariants and liveness, and declared comparisons, in that order."""
+    results = Checker(machine, timeout_ms).run_all()
+    for declared in machine.comparisons:
+        start = time.perf_counter()
+        found = compare(machine, declared.other, timeout_ms)
+        seconds = time.perf_counter() - start
+        prop = f"equiv:{declared.other.name}"
+        results.append(
+            Result(
+                prop,
+                "equivalence",
+                found.verdict,
+                declared.expect,
+                declared.cite,
+                seconds,
+                found.counterexample,
+                found.detail,
+            )
+        )
+    return results

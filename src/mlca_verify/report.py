@@ -1,0 +1,126 @@
+"""Text tables and JSON documents for check and diff results (pure: strings and dicts, no I/O)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from mlca_verify.logic.equiv import Comparison, Region
+from mlca_verify.logic.results import Counterexample, Outcome, Result
+
+CHECK_SCHEMA = "mlca-verify.check/1"
+CITE_WIDTH = 60
+TRACE_CITE_WIDTH = 44
+
+
+def table(headers: Sequence[str], rows: Sequence[Sequence[str]], indent: str = "") -> str:
+    """A plain, aligned text table."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(headers)]
+
+    def line(cells: Sequence[str]) -> str:
+        return (indent + "  ".join(c.ljust(w) for c, w in zip(cells, widths, strict=True))).rstrip()
+
+    rule = indent + "  ".join("-" * w for w in widths)
+    return "\n".join([line(headers), rule, *(line(r) for r in rows)])
+
+
+def _clip(text: str, width: int) -> str:
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def _fired_text(o: Outcome) -> str:
+    who = f"{o.machine}: " if o.machine else ""
+    if o.transition is None:
+        return f"{who}(no transition)"
+    return f"{who}{o.transition} ({_clip(o.cite or '', TRACE_CITE_WIDTH)})"
+
+
+def _outcome_text(o: Outcome) -> str:
+    return _fired_text(o) if o.transition is None else f"{_fired_text(o)} -> {o.next}"
+
+
+def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") -> str:
+    """A counterexample as a table of steps; inputs as 1/0; the loop of a lasso marked."""
+    rows = []
+    for index, step in enumerate(cx.steps):
+        mark = "loop->" if cx.loop_start == index else ""
+        bits = [("1" if step.inputs.get(n) else "0") for n in inputs]
+        stuck = step.outcome.transition is None and not step.alternatives
+        nxt = "stuck" if stuck else (step.outcome.next or "-")
+        rows.append([mark, str(index + 1), step.state, *bits, _fired_text(step.outcome), nxt])
+        rows.extend(["", "", "", *[""] * len(inputs), "  or " + _outcome_text(alt), ""] for alt in step.alternatives)
+    headers = ["", "step", "state", *inputs, "transition", "next"]
+    text = table(headers, rows, indent)
+    if cx.loop_start is not None:
+        text += f"\n{indent}(steps {cx.loop_start + 1}..{len(cx.steps)} repeat forever)"
+    return text
+
+
+def results_text(spec_path: str, machine: str, results: Sequence[Result], inputs: Sequence[str]) -> str:
+    rows = []
+    for r in results:
+        status = "ok" if r.ok else "UNEXPECTED"
+        rows.append([r.prop, r.kind, r.verdict, r.expected, status, _clip(r.cite, CITE_WIDTH)])
+    parts = [f"{spec_path} ({machine})", table(["property", "kind", "verdict", "expected", "", "cite"], rows, "  ")]
+    for r in results:
+        if r.counterexample is not None and r.counterexample.steps:
+            parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
+            parts.append(trace_text(r.counterexample, inputs))
+        elif r.verdict != "holds":
+            parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
+    return "\n".join(parts)
+
+
+def summary_text(results: Sequence[Result]) -> str:
+    bad = [r for r in results if not r.ok]
+    counts = {v: sum(1 for r in results if r.verdict == v) for v in ("holds", "violated", "unknown")}
+    line = (
+        f"{len(results)} properties: {counts['holds']} hold, {counts['violated']} violated, {counts['unknown']} unknown"
+    )
+    if bad:
+        return line + f"; {len(bad)} not as expected: " + ", ".join(r.prop for r in bad)
+    return line + "; all as expected"
+
+
+def check_document(specs: Sequence[tuple[str, str, str, Sequence[Result]]]) -> dict[str, Any]:
+    """The `mlca-verify check --json` document (schema mlca-verify.check/1)."""
+    return {
+        "schema": CHECK_SCHEMA,
+        "specs": [
+            {"path": path, "sha256": digest, "machine": name, "results": [r.to_json() for r in results]}
+            for path, digest, name, results in specs
+        ],
+    }
+
+
+def cube_text(cube: dict[str, bool]) -> str:
+    if not cube:
+        return "any inputs"
+    return " and ".join(name if value else f"not {name}" for name, value in cube.items())
+
+
+def _short_outcome(o: Outcome) -> str:
+    return "no transition" if o.transition is None else f"{o.transition} -> {o.next}"
+
+
+def regions_text(regions: Sequence[Region], left_name: str, right_name: str) -> str:
+    rows = []
+    for r in regions:
+        left = "; ".join(_short_outcome(o) for o in r.left)
+        right = "; ".join(_short_outcome(o) for o in r.right)
+        rows.append([r.state, cube_text(r.cube), left, right])
+    return table(["state", "when", left_name, right_name], rows, "  ")
+
+
+def diff_text(left: str, right: str, comparison: Comparison, inputs: Sequence[str]) -> str:
+    if comparison.verdict == "holds":
+        return f"{left} and {right} are equivalent: {comparison.detail}"
+    if comparison.verdict == "unknown":
+        return f"{left} vs {right}: unknown (a solver query timed out)"
+    parts = [f"{left} and {right} differ: {comparison.detail}"]
+    if comparison.regions:
+        parts += ["", "where they differ (states both reach, and the inputs on which they do different things):"]
+        parts.append(regions_text(comparison.regions, left, right))
+    if comparison.counterexample is not None and comparison.counterexample.steps:
+        parts += ["", "shortest distinguishing sequence:", trace_text(comparison.counterexample, inputs)]
+    return "\n".join(parts)

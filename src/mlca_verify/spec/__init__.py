@@ -1,0 +1,75 @@
+"""Load a spec file: TOML syntax, then shape, then meaning. Every failure is a one-line `SpecError`."""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from mlca_verify.errors import Loc, SpecError, UsageError
+from mlca_verify.model import Machine
+from mlca_verify.spec.locate import Locator
+from mlca_verify.spec.meaning import LoadOther, MeaningChecker
+from mlca_verify.spec.shape import ShapeChecker
+
+__all__ = ["LoadedSpec", "load_spec", "load_text"]
+
+_TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+
+
+@dataclass(frozen=True)
+class LoadedSpec:
+    """A machine with the file it came from and the file's sha256."""
+
+    path: str
+    sha256: str
+    machine: Machine
+
+
+def _toml_error(file: str, err: tomllib.TOMLDecodeError) -> SpecError:
+    text = str(err)
+    m = _TOML_POS.search(text)
+    loc = Loc(file, int(m.group(1)), int(m.group(2))) if m else Loc(file, 1, 1)
+    message = _TOML_POS.sub("", text)
+    return SpecError(loc, f"invalid TOML: {message[:1].lower()}{message[1:]}")
+
+
+def load_text(text: str, file: str, load_other: LoadOther | None = None) -> Machine:
+    """Parse and check spec text; `file` is only used in messages."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise _toml_error(file, err) from None
+    where = Locator(file, text)
+    ShapeChecker(doc, where).check()
+    return MeaningChecker(doc, where, load_other).build()
+
+
+def _read(path: Path) -> tuple[str, str]:
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise UsageError(f"{path}: error: cannot read spec: {err.strerror or err}") from None
+    try:
+        return data.decode("utf-8"), hashlib.sha256(data).hexdigest()
+    except UnicodeDecodeError as err:
+        line = data[: err.start].count(b"\n") + 1
+        col = err.start - (data.rfind(b"\n", 0, err.start) + 1) + 1
+        raise SpecError(Loc(str(path), line, col), f"spec is not UTF-8 text (byte 0x{data[err.start]:02x})") from None
+
+
+def load_spec(path: str | Path, compare: bool = True) -> LoadedSpec:
+    """Load a spec file. With `compare`, machines named in `[[compare]]` are loaded too (one level)."""
+    path = Path(path)
+    text, digest = _read(path)
+
+    def load_other(name: str, loc: Loc) -> Machine:
+        other = path.parent / name
+        if not other.is_file():
+            raise SpecError(loc, f"compared spec '{name}' not found (looked for {other})")
+        return load_spec(other, compare=False).machine
+
+    machine = load_text(text, str(path), load_other if compare else None)
+    return LoadedSpec(str(path), digest, machine)

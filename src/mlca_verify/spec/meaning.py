@@ -1,0 +1,255 @@
+"""Stage two of loading: names, references and expressions, turned into a `Machine`."""
+
+from __future__ import annotations
+
+import keyword
+import re
+from collections.abc import Callable, Iterable
+from typing import Any, cast
+
+from mlca_verify.errors import Loc, SpecError
+from mlca_verify.model import (
+    ANY_STATE,
+    Comparison,
+    Expr,
+    Input,
+    Invariant,
+    Liveness,
+    Machine,
+    Otherwise,
+    Semantics,
+    Transition,
+    Verdict,
+)
+from mlca_verify.spec.expr_parser import ParseError, parse_expr
+from mlca_verify.spec.locate import Locator, Path
+
+C_KEYWORDS = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto if inline int "
+    "long register restrict return short signed sizeof static struct switch typedef union unsigned void "
+    "volatile while _Bool _Complex _Imaginary _Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert "
+    "_Thread_local bool true false NULL main".split()
+)
+EXPR_WORDS = frozenset({"and", "or", "not", "true", "false", "state", "in"})
+BUILTIN_PROPERTIES = frozenset({"determinism", "completeness"})
+_IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+_PROPERTY_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_\-.]*$")
+SEMANTICS = ("first-match", "any-enabled")
+OTHERWISE = ("stay", "undefined")
+VERDICTS = ("holds", "violated")
+
+LoadOther = Callable[[str, Loc], Machine]
+
+
+class MeaningChecker:
+    """Builds a `Machine` from a shape-checked document, checking every name and expression."""
+
+    def __init__(self, doc: dict[str, Any], where: Locator, load_other: LoadOther | None) -> None:
+        self.doc = doc
+        self.where = where
+        self.load_other = load_other
+        self.states: tuple[str, ...] = ()
+        self.input_names: frozenset[str] = frozenset()
+
+    def fail(self, path: Path, message: str) -> SpecError:
+        return SpecError(self.where.loc(path), message)
+
+    # --- names ---------------------------------------------------------------------------------------
+
+    def identifier(self, path: Path, name: str, what: str, loc: Loc | None = None) -> None:
+        def error(message: str) -> SpecError:
+            return SpecError(loc or self.where.loc(path), message)
+
+        if not _IDENT.match(name):
+            raise error(f"{what} {name!r} is not an identifier (a letter, then letters, digits or '_')")
+        if keyword.iskeyword(name):
+            raise error(f"{what} '{name}' is a Python keyword")
+        if name in C_KEYWORDS:
+            raise error(f"{what} '{name}' is a C keyword or reserved name")
+        if name in EXPR_WORDS:
+            raise error(f"{what} '{name}' is a word of the expression language")
+
+    def distinct(self, path: Path, names: Iterable[tuple[str, Loc]], what: str) -> None:
+        seen: dict[str, str] = {}
+        for name, loc in names:
+            if (other := seen.get(name.lower())) is not None:
+                same = "twice" if other == name else f"(clashes with '{other}' once case is folded)"
+                raise SpecError(loc, f"duplicate {what} '{name}' {same}")
+            seen[name.lower()] = name
+
+    # --- machine -------------------------------------------------------------------------------------
+
+    def build(self) -> Machine:
+        m = self.doc["machine"]
+        self.identifier(("machine", "name"), m["name"], "machine name")
+        self.states = tuple(m["states"])
+        if not self.states:
+            raise self.fail(("machine", "states"), "a machine needs at least one state")
+        state_locs = [(s, self.where.element_loc(("machine", "states"), s)) for s in self.states]
+        for state, loc in state_locs:
+            self.identifier(("machine", "states"), state, "state name", loc)
+        self.distinct(("machine", "states"), state_locs, "state")
+        if m["initial"] not in self.states:
+            raise self.fail(
+                ("machine", "initial"), f"initial state '{m['initial']}' is not a state ({', '.join(self.states)})"
+            )
+        inputs = self.inputs()
+        transitions = self.transitions()
+        invariants = self.invariants()
+        liveness = self.liveness_list()
+        self.unique_properties(invariants, liveness)
+        return Machine(
+            name=m["name"],
+            initial=m["initial"],
+            states=self.states,
+            inputs=inputs,
+            transitions=transitions,
+            semantics=cast(
+                Semantics, self.choice(("machine", "semantics"), m.get("semantics", "first-match"), SEMANTICS)
+            ),
+            otherwise=cast(Otherwise, self.choice(("machine", "otherwise"), m.get("otherwise", "stay"), OTHERWISE)),
+            cite=m["cite"],
+            doc=m.get("doc", ""),
+            invariants=invariants,
+            liveness=liveness,
+            comparisons=self.comparisons(),
+            expect=self.expect_table(transitions),
+            loc=self.where.loc(("machine",)),
+        )
+
+    def choice(self, path: Path, value: str, allowed: tuple[str, ...]) -> str:
+        if value not in allowed:
+            raise self.fail(path, f"'{path[-1]}' must be one of {', '.join(allowed)}, got {value!r}")
+        return value
+
+    def inputs(self) -> tuple[Input, ...]:
+        items = self.doc["inputs"]
+        if not items:
+            raise self.fail(("inputs",), "a machine needs at least one input")
+        result = []
+        for name, item in items.items():
+            self.identifier(("inputs", name), name, "input name")
+            result.append(Input(name, item["doc"], item["cite"], self.where.loc(("inputs", name))))
+        self.distinct(("inputs",), [(i.name, i.loc) for i in result], "input")
+        self.input_names = frozenset(items)
+        return tuple(result)
+
+    # --- expressions ---------------------------------------------------------------------------------
+
+    def expr(self, path: Path, text: str, allow_state: bool, role: str) -> Expr:
+        try:
+            expr, refs = parse_expr(text)
+        except ParseError as err:
+            raise SpecError(self.where.string_loc(path, err.offset), f"bad {role} {text!r}: {err.message}") from None
+        for ref in refs:
+            loc = self.where.string_loc(path, ref.offset)
+            if ref.is_state and not allow_state:
+                raise SpecError(loc, f"{role} may not refer to the state (a {role} is over inputs only): {text!r}")
+            if ref.is_state and ref.name not in self.states:
+                raise SpecError(loc, f"unknown state '{ref.name}' in {role} (states: {', '.join(self.states)})")
+            if not ref.is_state and ref.name not in self.input_names:
+                raise SpecError(
+                    loc, f"unknown input '{ref.name}' in {role} (inputs: {', '.join(sorted(self.input_names))})"
+                )
+        return expr
+
+    # --- transitions and properties ------------------------------------------------------------------
+
+    def transitions(self) -> tuple[Transition, ...]:
+        result: list[Transition] = []
+        for index, item in enumerate(self.doc.get("transition", [])):
+            path: Path = ("transition", index)
+            tid = item.get("id", f"t{index + 1}")
+            self.property_id((*path, "id"), tid, "transition id")
+            result.append(
+                Transition(
+                    id=tid,
+                    sources=self.sources((*path, "from"), item["from"]),
+                    target=self.state_ref((*path, "to"), item["to"], "target state"),
+                    guard=self.expr((*path, "when"), item["when"], allow_state=False, role="guard"),
+                    cite=item["cite"],
+                    loc=self.where.loc(path),
+                    doc=item.get("doc", ""),
+                )
+            )
+        self.distinct(("transition",), [(t.id, t.loc) for t in result], "transition id")
+        return tuple(result)
+
+    def sources(self, path: Path, value: str | list[str]) -> tuple[str, ...] | None:
+        if value == ANY_STATE:
+            return None
+        names = [value] if isinstance(value, str) else value
+        if not names:
+            raise self.fail(path, "'from' must name at least one state, or be \"*\"")
+        return tuple(self.state_ref(path, n, "source state") for n in names)
+
+    def state_ref(self, path: Path, name: str, what: str) -> str:
+        if name not in self.states:
+            raise self.fail(path, f"unknown {what} '{name}' (states: {', '.join(self.states)})")
+        return name
+
+    def property_id(self, path: Path, pid: str, what: str) -> None:
+        if not _PROPERTY_ID.match(pid):
+            raise self.fail(path, f"{what} {pid!r} must start with a letter and use letters, digits, '_', '-', '.'")
+        if pid in BUILTIN_PROPERTIES:
+            raise self.fail(path, f"{what} '{pid}' is the name of a built-in check")
+
+    def verdict(self, path: Path, item: dict[str, Any]) -> Verdict:
+        return cast(Verdict, self.choice((*path, "expect"), item.get("expect", "holds"), VERDICTS))
+
+    def invariants(self) -> tuple[Invariant, ...]:
+        result = []
+        for index, item in enumerate(self.doc.get("invariant", [])):
+            path: Path = ("invariant", index)
+            self.property_id((*path, "id"), item["id"], "invariant id")
+            expr = self.expr((*path, "expr"), item["expr"], allow_state=True, role="invariant")
+            loc = self.where.loc(path)
+            result.append(Invariant(item["id"], expr, item["cite"], self.verdict(path, item), loc, item.get("doc", "")))
+        return tuple(result)
+
+    def liveness_list(self) -> tuple[Liveness, ...]:
+        result = []
+        for index, item in enumerate(self.doc.get("liveness", [])):
+            path: Path = ("liveness", index)
+            self.property_id((*path, "id"), item["id"], "liveness id")
+            within = item.get("within")
+            if within is not None and within < 1:
+                raise self.fail((*path, "within"), f"'within' must be a positive number of steps, got {within}")
+            result.append(
+                Liveness(
+                    id=item["id"],
+                    assume=self.expr((*path, "assume"), item["assume"], allow_state=False, role="assumption"),
+                    goal=self.expr((*path, "goal"), item["goal"], allow_state=True, role="goal"),
+                    within=within,
+                    cite=item["cite"],
+                    expect=self.verdict(path, item),
+                    loc=self.where.loc(path),
+                    doc=item.get("doc", ""),
+                )
+            )
+        return tuple(result)
+
+    def unique_properties(self, invariants: tuple[Invariant, ...], liveness: tuple[Liveness, ...]) -> None:
+        named = [(p.id, p.loc) for p in invariants] + [(p.id, p.loc) for p in liveness]
+        self.distinct((), named, "property id")
+
+    def comparisons(self) -> tuple[Comparison, ...]:
+        result = []
+        for index, item in enumerate(self.doc.get("compare", [])):
+            path: Path = ("compare", index)
+            if self.load_other is None:
+                continue
+            other = self.load_other(item["with"], self.where.loc((*path, "with")))
+            result.append(Comparison(other, self.verdict(path, item), item["cite"], self.where.loc(path)))
+        return tuple(result)
+
+    def expect_table(self, transitions: tuple[Transition, ...]) -> dict[str, Verdict]:
+        known = set(BUILTIN_PROPERTIES) | {f"reach:{s}" for s in self.states} | {f"fires:{t.id}" for t in transitions}
+        table: dict[str, Verdict] = {}
+        for key, value in self.doc.get("expect", {}).items():
+            path: Path = ("expect", key)
+            if key not in known:
+                hint = "determinism, completeness, reach:<state>, fires:<transition id>"
+                raise self.fail(path, f"unknown built-in check '{key}' in [expect] (one of {hint})")
+            table[key] = cast(Verdict, self.choice(path, value, VERDICTS))
+        return table
