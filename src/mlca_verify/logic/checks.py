@@ -36,6 +36,9 @@ class Checker:
         self.solver = Solver(machine.input_names, timeout_ms)
         self.enc = Encoding(machine, self.solver)
         self.reach = explore(self.enc)
+        self.first_use: dict[str, Move] = {}
+        for move in self.reach.moves():
+            self.first_use.setdefault(move.id, move)
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -122,7 +125,7 @@ class Checker:
         return Finding(verdict, detail=f"no run from {self.machine.initial} reaches {state}")
 
     def fires(self, tid: str) -> Finding:
-        used = next((m for m in self.reach.moves() if m.id == tid), None)
+        used = self.first_use.get(tid)
         if used is not None:
             return Finding("holds", detail=f"fires from {used.source}, {self.reach.dist[used.source]} steps in")
         if self.reach.uncertain:
@@ -132,7 +135,8 @@ class Checker:
     def why_dead(self, tid: str) -> str:
         """Explain a dead transition: unreachable sources, an unsatisfiable guard, or earlier transitions."""
         reasons = []
-        for state in self.machine.states:
+        sources = next(t.sources for t in self.machine.transitions if t.id == tid)
+        for state in self.machine.states if sources is None else sources:
             moves = self.enc.moves[state]
             index = next((i for i, m in enumerate(moves) if m.id == tid), None)
             if index is None:
@@ -218,7 +222,8 @@ class LivenessSearch:
         """Shortest stem-plus-loop (or stem-plus-gap), by Dijkstra from every reachable state at its distance."""
         dist, via = self.dijkstra()
         best: tuple[int, str, list[Move] | None] | None = None
-        for state in sorted(dist, key=lambda s: (dist[s], self.c.reach.order.index(s))):
+        rank = {s: i for i, s in enumerate(self.c.reach.order)}
+        for state in sorted(dist, key=lambda s: (dist[s], rank[s])):
             if best is not None and dist[state] >= best[0]:
                 break
             if state in self.stuck:

@@ -43,14 +43,17 @@ class Encoding:
         self.solver = solver
         self.moves: dict[str, tuple[Move, ...]] = {}
         self.gaps: dict[str, z3.BoolRef] = {}
+        outgoing: dict[str, list[Transition]] = {s: [] for s in machine.states}
+        for t in machine.transitions:
+            for state in machine.states if t.sources is None else t.sources:
+                outgoing[state].append(t)
         for state in machine.states:
-            self._encode_state(state)
+            self._encode_state(state, outgoing[state])
 
     def guard(self, t: Transition) -> z3.BoolRef:
         return encode(t.guard, self.solver.vars)
 
-    def _encode_state(self, state: str) -> None:
-        out = self.machine.outgoing(state)
+    def _encode_state(self, state: str, out: list[Transition]) -> None:
         guards = [self.guard(t) for t in out]
         moves = []
         for index, (t, g) in enumerate(zip(out, guards, strict=True)):

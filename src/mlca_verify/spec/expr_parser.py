@@ -44,6 +44,7 @@ class NameRef:
     name: str
     offset: int
     is_state: bool
+    state_offset: int = 0  # for a state name: where its 'state' keyword stands
 
 
 _TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op><->|->|==|!=|[(){},]))")
@@ -143,30 +144,30 @@ class _Parser:
         if tok.text in ("true", "false"):
             return Const(tok.text == "true")
         if tok.text == "state":
-            return self.state_comparison(tok)
+            return self.state_comparison(tok.offset)
         self.refs.append(NameRef(tok.text, tok.offset, is_state=False))
         return Var(tok.text)
 
-    def state_comparison(self, tok: Token) -> Expr:
+    def state_comparison(self, at: int) -> Expr:
         if self.accept("=="):
-            return StateIn((self.state_name(),))
+            return StateIn((self.state_name(at),))
         if self.accept("!="):
-            return Not(StateIn((self.state_name(),)))
+            return Not(StateIn((self.state_name(at),)))
         if self.accept("in"):
             self.expect("{", "'{' after 'state in'")
-            names = [self.state_name()]
+            names = [self.state_name(at)]
             while self.accept(","):
-                names.append(self.state_name())
+                names.append(self.state_name(at))
             self.expect("}", "',' or '}'")
             return StateIn(tuple(names))
         raise ParseError(self.tok.offset, f"expected '==', '!=' or 'in' after 'state', found {self.describe()}")
 
-    def state_name(self) -> str:
+    def state_name(self, at: int) -> str:
         tok = self.tok
         if tok.kind != "NAME" or tok.text in _KEYWORDS:
             raise ParseError(tok.offset, f"expected a state name, found {self.describe()}")
         self.pos += 1
-        self.refs.append(NameRef(tok.text, tok.offset, is_state=True))
+        self.refs.append(NameRef(tok.text, tok.offset, is_state=True, state_offset=at))
         return tok.text
 
 

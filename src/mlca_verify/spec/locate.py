@@ -39,6 +39,7 @@ class Locator:
         self.file = file
         self.lines = text.splitlines()
         self.values: dict[Path, tuple[int, int]] = {}
+        self.keys: dict[Path, tuple[int, int]] = {}
         self._scan()
 
     def _scan(self) -> None:
@@ -50,12 +51,14 @@ class Locator:
                 table = (*name, counts[name])
                 counts[name] += 1
                 self.values[table] = (lineno, m.start("name") + 1)
+                self.values.setdefault(name, (lineno, m.start("name") + 1))
             elif m := _TABLE_HEADER.match(line):
                 table = _split_dotted(m.group("name"))
                 self.values[table] = (lineno, m.start("name") + 1)
             elif m := _KEY.match(line):
                 path = (*table, _unquote(m.group("key")))
                 self.values[path] = (lineno, m.end() + 1)
+                self.keys[path] = (lineno, m.start("key") + 1)
                 self._scan_inline(path, line, m.end(), lineno)
 
     def _scan_inline(self, path: Path, line: str, start: int, lineno: int) -> None:
@@ -63,6 +66,7 @@ class Locator:
             return
         for m in _INLINE_KEY.finditer(line, start):
             self.values[(*path, _unquote(m.group("key")))] = (lineno, m.end() + 1)
+            self.keys[(*path, _unquote(m.group("key")))] = (lineno, m.start("key") + 1)
 
     def loc(self, path: Path) -> Loc:
         """The value at `path`, or the closest enclosing key or table that was found."""
@@ -70,6 +74,11 @@ class Locator:
             if (found := self.values.get(path[:cut])) is not None:
                 return Loc(self.file, *found)
         return Loc(self.file, 1, 1)
+
+    def key_loc(self, path: Path) -> Loc:
+        """The key itself at `path` (where a name given as a key is wrong), else as `loc`."""
+        found = self.keys.get(path)
+        return Loc(self.file, *found) if found else self.loc(path)
 
     def string_loc(self, path: Path, offset: int) -> Loc:
         """The position of character `offset` inside the one-line string value at `path`."""
@@ -82,12 +91,17 @@ class Locator:
             return base
         return Loc(self.file, base.line, base.col + 1 + offset)
 
-    def element_loc(self, path: Path, element: str) -> Loc:
-        """The position of the quoted array element `element` in the value at `path`."""
+    def element_loc(self, path: Path, element: str, occurrence: int = 0) -> Loc:
+        """The position of the `occurrence`-th quoted `element` in the array value at `path`."""
         base = self.loc(path)
         pattern = re.compile(r"[\"']" + re.escape(element) + r"[\"']")
+        seen = 0
         for index in range(base.line - 1, len(self.lines)):
             start = base.col - 1 if index == base.line - 1 else 0
-            if m := pattern.search(self.lines[index], start):
-                return Loc(self.file, index + 1, m.start() + 1)
+            for m in pattern.finditer(self.lines[index], start):
+                if seen == occurrence:
+                    return Loc(self.file, index + 1, m.start() + 1)
+                seen += 1
+            if "]" in self.lines[index][start:]:
+                break
         return base

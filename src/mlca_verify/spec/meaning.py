@@ -73,8 +73,9 @@ class MeaningChecker:
         seen: dict[str, str] = {}
         for name, loc in names:
             if (other := seen.get(name.lower())) is not None:
-                same = "twice" if other == name else f"(clashes with '{other}' once case is folded)"
-                raise SpecError(loc, f"duplicate {what} '{name}' {same}")
+                if other == name:
+                    raise SpecError(loc, f"duplicate {what} '{name}'")
+                raise SpecError(loc, f"{what} '{name}' clashes with '{other}' (names must differ in more than case)")
             seen[name.lower()] = name
 
     # --- machine -------------------------------------------------------------------------------------
@@ -85,7 +86,10 @@ class MeaningChecker:
         self.states = tuple(m["states"])
         if not self.states:
             raise self.fail(("machine", "states"), "a machine needs at least one state")
-        state_locs = [(s, self.where.element_loc(("machine", "states"), s)) for s in self.states]
+        state_locs = [
+            (s, self.where.element_loc(("machine", "states"), s, self.states[:k].count(s)))
+            for k, s in enumerate(self.states)
+        ]
         for state, loc in state_locs:
             self.identifier(("machine", "states"), state, "state name", loc)
         self.distinct(("machine", "states"), state_locs, "state")
@@ -128,7 +132,7 @@ class MeaningChecker:
             raise self.fail(("inputs",), "a machine needs at least one input")
         result = []
         for name, item in items.items():
-            self.identifier(("inputs", name), name, "input name")
+            self.identifier(("inputs", name), name, "input name", self.where.key_loc(("inputs", name)))
             result.append(Input(name, item["doc"], item["cite"], self.where.loc(("inputs", name))))
         self.distinct(("inputs",), [(i.name, i.loc) for i in result], "input")
         self.input_names = frozenset(items)
@@ -144,7 +148,8 @@ class MeaningChecker:
         for ref in refs:
             loc = self.where.string_loc(path, ref.offset)
             if ref.is_state and not allow_state:
-                raise SpecError(loc, f"{role} may not refer to the state (a {role} is over inputs only): {text!r}")
+                where = self.where.string_loc(path, ref.state_offset)
+                raise SpecError(where, f"{role} may not refer to the state ({role}s are over inputs only): {text!r}")
             if ref.is_state and ref.name not in self.states:
                 raise SpecError(loc, f"unknown state '{ref.name}' in {role} (states: {', '.join(self.states)})")
             if not ref.is_state and ref.name not in self.input_names:

@@ -1,0 +1,41 @@
+"""Rewrite every command block in the docs with the command's current output.
+
+A block is a fenced `text` block right after a comment `<!-- $ mlca-verify ARGS -->`. tests/test_docs.py fails
+when a block differs from what the command prints; run `.venv/bin/python scripts/refresh_docs.py` to refresh.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+import shlex
+import sys
+from pathlib import Path
+
+from mlca_verify.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = [ROOT / "docs" / "findings.md", ROOT / "README.md"]
+BLOCK = re.compile(r"(<!-- \$ mlca-verify (?P<args>[^\n]*?) -->\n```text\n)(?P<body>.*?)(```)", re.DOTALL)
+
+
+def run(args: str) -> str:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        main(shlex.split(args))
+    return out.getvalue()
+
+
+def refresh(text: str) -> str:
+    return BLOCK.sub(lambda m: m.group(1) + run(m.group("args")) + m.group(4), text)
+
+
+if __name__ == "__main__":
+    import os
+
+    os.chdir(ROOT)
+    for doc in DOCS:
+        if doc.exists():
+            doc.write_text(refresh(doc.read_text(encoding="utf-8")), encoding="utf-8")
+    sys.exit(0)

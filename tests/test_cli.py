@@ -1,0 +1,104 @@
+"""The CLI contract: exit codes, the JSON report, --only, and diff."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mlca_verify.cli import main
+
+ROOT = Path(__file__).parent.parent
+SHIPPED = ["spec/mlca.toml", "spec/mlca_r.toml", "spec/paper/figure.toml", "spec/paper/prose.toml"]
+KINDS = {"determinism", "completeness", "reachability", "dead-transition", "invariant", "liveness", "equivalence"}
+
+
+@pytest.fixture(autouse=True)
+def _at_root(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(ROOT)
+
+
+def test_check_shipped_specs_writes_every_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "out.json"
+    assert main(["check", *SHIPPED, "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "mlca-verify.check/1"
+    assert [s["path"] for s in doc["specs"]] == SHIPPED
+    for spec in doc["specs"]:
+        assert len(spec["sha256"]) == 64
+        assert spec["results"], spec["path"]
+        for r in spec["results"]:
+            assert set(r) == {
+                "property",
+                "kind",
+                "verdict",
+                "expected",
+                "ok",
+                "cite",
+                "seconds",
+                "detail",
+                "counterexample",
+            }
+            assert r["kind"] in KINDS and r["verdict"] in {"holds", "violated", "unknown"}
+            assert r["ok"] is True
+            if r["verdict"] == "violated" and r["kind"] not in ("reachability", "dead-transition"):
+                cx = r["counterexample"]
+                assert cx["steps"] and set(cx) == {"steps", "loop_start"}
+                assert {"state", "inputs", "transition", "cite", "next"} <= set(cx["steps"][0])
+    text = capsys.readouterr().out
+    assert "all as expected" in text and "repeat forever" in text
+
+
+def test_json_counts_every_declared_property() -> None:
+    from mlca_verify.spec import load_spec
+
+    machine = load_spec(ROOT / "spec/mlca.toml").machine
+    expected = 2 + len(machine.states) + len(machine.transitions) + len(machine.invariants) + len(machine.liveness)
+    out = ROOT / "out" / "test_cli_count.json"
+    out.parent.mkdir(exist_ok=True)
+    assert main(["check", "spec/mlca.toml", "--json", str(out), "--quiet"]) == 0
+    assert len(json.loads(out.read_text())["specs"][0]["results"]) == expected
+    out.unlink()
+
+
+def test_unexpected_verdict_exits_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text = (ROOT / "spec/mlca.toml").read_text().replace('expect = "violated"', 'expect = "holds"', 1)
+    spec = tmp_path / "mlca.toml"
+    spec.write_text(text)
+    assert main(["check", str(spec)]) == 1
+    assert "not as expected: gap-taken" in capsys.readouterr().out
+
+
+def test_only_filters_and_rejects_unknown_names(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "spec/mlca.toml", "--only", "A2,gap-taken"]) == 0
+    out = capsys.readouterr().out
+    assert "2 properties" in out and "A3" not in out
+    assert main(["check", "spec/mlca.toml", "--only", "A9"]) == 2
+    assert "unknown properties: A9" in capsys.readouterr().err
+
+
+def test_diff_exit_codes(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", "spec/mlca.toml", "spec/paper/prose.toml"]) == 1
+    out = capsys.readouterr().out
+    assert "WAITING       N and L" in out and "wait_exit -> IDLE" in out
+    assert main(["diff", "tests/corpus/pingpong.toml", "tests/corpus/pingpong_twin.toml"]) == 0
+    assert "are equivalent" in capsys.readouterr().out
+
+
+def test_console_script_runs_as_a_process() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "mlca_verify", "check", "spec/mlca_r.toml", "--quiet"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "all as expected" in done.stdout
+
+
+def test_unwritable_json_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["check", "spec/mlca.toml", "--json", "/nonexistent/dir/out.json", "--quiet"]) == 2
+    assert capsys.readouterr().err.startswith("/nonexistent/dir/out.json: error: cannot write")

@@ -1,0 +1,101 @@
+"""Known-answer corpus: (spec, property) -> verdict and the length of the shortest counterexample.
+
+Every layer runs against it: the engine here, the brute-force explorer below, the CLI in test_cli."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mlca_verify.logic import check_all
+from mlca_verify.logic.results import Result
+from mlca_verify.spec import load_spec
+from tests.bruteforce import Explicit
+
+ROOT = Path(__file__).parent.parent
+V, H = "violated", "holds"
+
+# spec, property, verdict, counterexample length (None: no trace), loop_start
+ANSWERS = [
+    ("tests/corpus/shadowed.toml", "fires:t3", V, None, None),
+    ("tests/corpus/shadowed.toml", "fires:t4", H, None, None),
+    ("tests/corpus/shadowed.toml", "reach:C", H, None, None),
+    ("tests/corpus/shadowed.toml", "c-needs-b", V, 3, None),
+    ("tests/corpus/shadowed.toml", "not-a-means-A", H, None, None),
+    ("tests/corpus/nondeterministic.toml", "determinism", V, 1, None),
+    ("tests/corpus/nondeterministic.toml", "completeness", V, 1, None),
+    ("tests/corpus/nondeterministic.toml", "reach:D", V, None, None),
+    ("tests/corpus/counter.toml", "below-four", V, 4, None),
+    ("tests/corpus/counter.toml", "clear-resets", H, None, None),
+    ("tests/corpus/counter.toml", "counts-to-four", H, None, None),
+    ("tests/corpus/counter.toml", "counts-to-four-in-3", V, 3, None),
+    ("tests/corpus/counter.toml", "reaches-S2", V, 1, 0),
+    ("tests/corpus/pingpong.toml", "completeness", V, 2, None),
+    ("tests/corpus/pingpong.toml", "reaches-C", V, 2, None),
+    ("tests/corpus/pingpong.toml", "equiv:PingPongTwin", H, None, None),
+    ("tests/corpus/pingpong.toml", "equiv:PingPongLate", V, 2, None),
+    ("spec/mlca.toml", "A2", H, None, None),
+    ("spec/mlca.toml", "gap-taken", V, 2, 0),
+    ("spec/mlca.toml", "gap-taken-when-urgent", H, None, None),
+    ("spec/mlca_r.toml", "gap-taken", H, None, None),
+    ("spec/mlca_r.toml", "gap-taken-within-3", H, None, None),
+    ("spec/mlca_r.toml", "gap-taken-within-2-fails", V, 3, None),
+    ("spec/mlca_r.toml", "equiv:MLCA", V, 2, None),
+    ("spec/paper/figure.toml", "determinism", V, 1, None),
+    ("spec/paper/figure.toml", "completeness", V, 1, None),
+    ("spec/paper/figure.toml", "settles-when-not-needed", V, 2, None),
+    ("spec/paper/prose.toml", "gap-taken", V, 2, None),
+    ("spec/paper/prose.toml", "equiv:MLCA", V, 1, None),
+]
+
+
+@pytest.fixture(scope="module")
+def results() -> dict[str, dict[str, Result]]:
+    table: dict[str, dict[str, Result]] = {}
+    for spec in sorted({a[0] for a in ANSWERS}):
+        table[spec] = {r.prop: r for r in check_all(load_spec(ROOT / spec).machine)}
+    return table
+
+
+@pytest.mark.parametrize(
+    ("spec", "prop", "verdict", "length", "loop"), ANSWERS, ids=[f"{a[0]}:{a[1]}" for a in ANSWERS]
+)
+def test_known_answer(
+    results: dict[str, dict[str, Result]], spec: str, prop: str, verdict: str, length: int | None, loop: int | None
+) -> None:
+    result = results[spec][prop]
+    assert result.verdict == verdict
+    cx = result.counterexample
+    assert (None if cx is None else len(cx.steps)) == length
+    assert (None if cx is None else cx.loop_start) == loop
+
+
+def test_corpus_covers_every_kind(results: dict[str, dict[str, Result]]) -> None:
+    kinds = {results[s][p].kind for s, p, *_ in ANSWERS}
+    verdicts = {(results[s][p].kind, v) for s, p, v, *_ in ANSWERS}
+    assert kinds == {
+        "determinism",
+        "completeness",
+        "reachability",
+        "dead-transition",
+        "invariant",
+        "liveness",
+        "equivalence",
+    }
+    assert all((k, V) in verdicts for k in kinds)
+
+
+@pytest.mark.parametrize("spec", sorted({a[0] for a in ANSWERS}))
+def test_bruteforce_agrees_with_the_corpus(spec: str) -> None:
+    machine = load_spec(ROOT / spec).machine
+    ex = Explicit(machine)
+    for s, prop, verdict, length, _ in ANSWERS:
+        inv = next((i for i in machine.invariants if i.id == prop), None)
+        if s == spec and inv is not None:
+            assert ex.invariant(inv.expr) == length
+        live = next((p for p in machine.liveness if p.id == prop), None)
+        if s == spec and live is not None and live.within is None:
+            assert ex.liveness(live) == length
+        if s == spec and live is not None and live.within is not None:
+            assert ex.bounded_violated(live) == (verdict == V)
