@@ -12,6 +12,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from mlca_verify import __version__, report
+from mlca_verify.codegen import drift, generate, write
+from mlca_verify.conform import CHECKS, conform
+from mlca_verify.conform.checks import Outcome
 from mlca_verify.errors import MlcaError, UsageError
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
@@ -42,6 +45,22 @@ def _parser() -> argparse.ArgumentParser:
     diff.add_argument("left", metavar="A", help="first spec")
     diff.add_argument("right", metavar="B", help="second spec")
     diff.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
+
+    gen = sub.add_parser("gen", help="generate Python and C99 code from specs (or check generated/ for drift)")
+    gen.add_argument("specs", nargs="*", metavar="SPEC", help="spec files (default: spec/*.toml)")
+    gen.add_argument("--out", default="generated", metavar="DIR", help="output folder (default: generated)")
+    gen.add_argument(
+        "--check", action="store_true", help="write nothing; exit 1 when DIR differs from what is generated"
+    )
+
+    conform = sub.add_parser("conform", help="prove and test that the generated code implements its spec")
+    conform.add_argument("specs", nargs="+", metavar="SPEC", help="spec files")
+    conform.add_argument(
+        "--generated", default="generated", metavar="DIR", help="where the code is (default: generated)"
+    )
+    conform.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.conform/1)")
+    conform.add_argument("--only", metavar="CHECKS", help=f"comma-separated subset of: {', '.join(CHECKS)}")
+    conform.add_argument("--sequences", type=int, default=200, help="random input sequences to run (default 200)")
     return parser
 
 
@@ -87,11 +106,63 @@ def cmd_diff(args: argparse.Namespace) -> int:
     return {"holds": EXIT_OK, "violated": EXIT_FINDING, "unknown": EXIT_FINDING}[found.verdict]
 
 
+def _default_specs() -> list[str]:
+    found = sorted(str(p) for p in Path("spec").glob("*.toml"))
+    if not found:
+        raise UsageError("error: no SPEC given and no spec/*.toml here")
+    return found
+
+
+def cmd_gen(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    files: dict[str, str] = {}
+    for path in args.specs or _default_specs():
+        files.update(generate(load_spec(path, compare=False), out))
+    if args.check:
+        problems = drift(files, out)
+        for d in problems:
+            print(f"{out / d.path}: {d.problem}")
+        if problems:
+            print(f"{len(problems)} generated files out of date: run `mlca-verify gen` and commit the result")
+            return EXIT_FINDING
+        print(f"{len(files)} generated files up to date in {out}/")
+        return EXIT_OK
+    for path in write(files, out):
+        print(f"wrote {path}")
+    return EXIT_OK
+
+
+def cmd_conform(args: argparse.Namespace) -> int:
+    names = list(CHECKS) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
+    unknown = [n for n in names if n not in CHECKS]
+    if unknown:
+        raise UsageError(f"error: --only names unknown checks: {', '.join(unknown)} (known: {', '.join(CHECKS)})")
+    specs = [load_spec(p, compare=False) for p in args.specs]
+    results = []
+    for spec in specs:
+        print(f"{spec.path} ({spec.machine.name})")
+        width = max(len(n) for n in ["up-to-date", *names])
+
+        def show(outcome: Outcome, width: int = width) -> None:
+            lines = outcome.detail.splitlines() or [""]
+            status = "pass" if outcome.ok else "FAIL"
+            print(f"  {outcome.name.ljust(width)}  {status}  {lines[0]}", flush=True)
+            for line in lines[1:]:
+                print(f"  {'':{width}}        {line}")
+
+        results.append(conform(spec, Path(args.generated), names, show, sequences=args.sequences))
+        passed = sum(o.ok for o in results[-1].outcomes)
+        print(f"{spec.path}: {passed} of {len(results[-1].outcomes)} checks passed\n")
+    if args.json:
+        _write_json(args.json, {"schema": "mlca-verify.conform/1", "specs": [r.to_json() for r in results]})
+    return EXIT_OK if all(r.ok for r in results) else EXIT_FINDING
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; return the exit code. User mistakes print one line on stderr and return 2."""
     try:
         args = _parser().parse_args(argv)
-        command = {"check": cmd_check, "diff": cmd_diff}[args.command]
+        command = {"check": cmd_check, "diff": cmd_diff, "gen": cmd_gen, "conform": cmd_conform}[args.command]
         return command(args)
     except MlcaError as err:
         print(str(err).splitlines()[0], file=sys.stderr)

@@ -32,3 +32,11 @@ class SpecError(MlcaError):
 
 class UsageError(MlcaError):
     """A command used wrongly (missing file, incompatible options)."""
+
+
+class CodegenError(MlcaError):
+    """A machine that cannot be turned into code (nondeterministic, with gaps), or a template problem."""
+
+
+class ToolError(MlcaError):
+    """An external tool (compiler, prover, checker) that is missing or failed to run."""

@@ -1,0 +1,110 @@
+"""A language-neutral intermediate form of a deterministic machine, ready for any renderer.
+
+Per state, the branches that apply there in priority order (global `from = "*"` transitions included), then
+the default (`otherwise = "stay"`). Renderers never re-derive semantics from the spec; they print this.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mlca_verify.codegen.simplify import in_context
+from mlca_verify.errors import CodegenError
+from mlca_verify.logic.solver import Solver
+from mlca_verify.model import Expr, Machine
+
+GENERATOR_NAME = "mlca-verify"
+
+
+@dataclass(frozen=True)
+class Branch:
+    transition: str
+    guard: Expr  # the spec's guard (contracts)
+    code: Expr  # the same condition in its first-match context (code)
+    target: str
+    cite: str
+
+
+@dataclass(frozen=True)
+class StateCase:
+    state: str
+    index: int
+    cite: str
+    branches: tuple[Branch, ...]
+
+
+@dataclass(frozen=True)
+class InputIR:
+    name: str
+    doc: str
+    cite: str
+
+
+@dataclass(frozen=True)
+class InvariantIR:
+    id: str
+    expr: Expr
+    cite: str
+    proved: bool  # expected to hold: stated as a contract on the step function, not only monitored
+
+
+@dataclass(frozen=True)
+class MachineIR:
+    name: str
+    module: str  # lower-case stem: <module>_fsm.py, <module>_fsm.h, C function prefix
+    macro: str  # upper-case prefix of C constants and the header guard
+    doc: str
+    cite: str
+    spec_path: str
+    spec_sha256: str
+    generator: str
+    initial: str
+    states: tuple[str, ...]
+    inputs: tuple[InputIR, ...]
+    cases: tuple[StateCase, ...]
+    # how many leading branches every state shares (`from = "*"` transitions to the initial state): the code
+    # tests them once, before the switch; out-of-range states still end in the initial state
+    hoisted: int
+    otherwise_cite: str
+    invariants: tuple[InvariantIR, ...]
+    reachable: tuple[str, ...]
+
+
+def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, reachable: tuple[str, ...]) -> MachineIR:
+    """The IR of a first-match, gap-free machine; anything else is refused with a `CodegenError`."""
+    if machine.semantics != "first-match":
+        raise CodegenError(
+            f"{machine.loc}: error: machine '{machine.name}' is nondeterministic (semantics = \"any-enabled\"); "
+            "code is generated only for first-match machines"
+        )
+    cases = []
+    solver = Solver(machine.input_names)
+    for index, state in enumerate(machine.states):
+        out = [t for t in machine.transitions if t.applies_to(state)]
+        codes = in_context([t.guard for t in out], solver)
+        branches = tuple(Branch(t.id, t.guard, c, t.target, t.cite) for t, c in zip(out, codes, strict=True))
+        cases.append(StateCase(state, index, machine.cite, branches))
+    module = machine.name.lower()
+    hoisted = 0
+    for t in machine.transitions:
+        if t.sources is not None or t.target != machine.initial:
+            break
+        hoisted += 1
+    return MachineIR(
+        name=machine.name,
+        module=module,
+        macro=machine.name.upper(),
+        doc=machine.doc,
+        cite=machine.cite,
+        spec_path=spec_path,
+        spec_sha256=spec_sha256,
+        generator=f"{GENERATOR_NAME} {version}",
+        initial=machine.initial,
+        states=machine.states,
+        inputs=tuple(InputIR(i.name, i.doc, i.cite) for i in machine.inputs),
+        cases=tuple(cases),
+        hoisted=hoisted,
+        otherwise_cite=machine.cite,
+        invariants=tuple(InvariantIR(i.id, i.expr, i.cite, i.expect == "holds") for i in machine.invariants),
+        reachable=reachable,
+    )

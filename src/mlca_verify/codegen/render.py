@@ -1,0 +1,140 @@
+"""Jinja rendering: expression printers for Python, C and ACSL, and the template environment."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import jinja2
+
+from mlca_verify.codegen.ir import MachineIR
+from mlca_verify.errors import CodegenError
+from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, show
+
+TEMPLATE_DIR = Path(__file__).resolve().parents[3] / "codegen"
+TEMPLATES = {
+    "python/{module}_fsm.py": "python_fsm.py.j2",
+    "c/{module}_fsm.h": "c_fsm.h.j2",
+    "c/{module}_fsm.c": "c_fsm.c.j2",
+}
+
+
+_PY_PREC = {"or": 3, "and": 4, "not": 5, "cmp": 6, "atom": 9}
+
+
+def py_expr(expr: Expr, parent: int = 0) -> str:
+    """Python over `inputs` and `state` (a `State`), with only the parentheses Python needs."""
+    text, prec = _py(expr)
+    return f"({text})" if prec < parent else text
+
+
+def _py(expr: Expr) -> tuple[str, int]:
+    if isinstance(expr, Const):
+        return ("True" if expr.value else "False"), _PY_PREC["atom"]
+    if isinstance(expr, Var):
+        return f"inputs.{expr.name}", _PY_PREC["atom"]
+    if isinstance(expr, StateIn):
+        return _py_state(expr, negated=False), _PY_PREC["cmp"]
+    if isinstance(expr, Not):
+        if isinstance(expr.arg, StateIn):
+            return _py_state(expr.arg, negated=True), _PY_PREC["cmp"]
+        if isinstance(expr.arg, Not):
+            return _py(expr.arg.arg)
+        return f"not {py_expr(expr.arg, _PY_PREC['not'])}", _PY_PREC["not"]
+    if expr.op == "->":
+        return _py(BinOp("or", Not(expr.left), expr.right))
+    if expr.op == "<->":
+        return f"{py_expr(expr.left, 7)} == {py_expr(expr.right, 7)}", _PY_PREC["cmp"]
+    prec = _PY_PREC[expr.op]
+    return f"{py_expr(expr.left, prec)} {expr.op} {py_expr(expr.right, prec)}", prec
+
+
+def _py_state(expr: StateIn, negated: bool) -> str:
+    if len(expr.states) == 1:
+        return f"state {'!=' if negated else '=='} State.{expr.states[0]}"
+    names = ", ".join(f"State.{s}" for s in expr.states)
+    return f"state {'not in' if negated else 'in'} ({names})"
+
+
+def _c_like(expr: Expr, macro: str, ops: dict[str, str], state: str) -> str:
+    def go(e: Expr) -> str:
+        if isinstance(e, Const):
+            return ops["true"] if e.value else ops["false"]
+        if isinstance(e, Var):
+            return f"in.{e.name}"
+        if isinstance(e, StateIn):
+            parts = [f"({state} == {macro}_{s})" for s in e.states]
+            return parts[0] if len(parts) == 1 else "(" + " || ".join(parts) + ")"
+        if isinstance(e, Not):
+            return f"(!{go(e.arg)})"
+        return f"({go(e.left)} {ops[e.op]} {go(e.right)})"
+
+    return go(expr)
+
+
+def c_expr(expr: Expr, macro: str) -> str:
+    """C99 over `in` (the inputs struct) and `s` (the state); `a -> b` becomes `(!a || b)`."""
+    ops = {"and": "&&", "or": "||", "<->": "==", "true": "true", "false": "false"}
+    return _c_like(_without_implies(expr), macro, ops, "s")
+
+
+def c_condition(expr: Expr, macro: str) -> str:
+    """A C expression wrapped in the parentheses an `if` needs."""
+    text = c_expr(expr, macro)
+    return text if text.startswith("(") and text.endswith(")") else f"({text})"
+
+
+def _without_implies(expr: Expr) -> Expr:
+    if isinstance(expr, BinOp):
+        left, right = _without_implies(expr.left), _without_implies(expr.right)
+        return BinOp("or", Not(left), right) if expr.op == "->" else BinOp(expr.op, left, right)
+    if isinstance(expr, Not):
+        return Not(_without_implies(expr.arg))
+    return expr
+
+
+def acsl_expr(expr: Expr, macro: str, state: str = "s") -> str:
+    """An ACSL predicate over `in` and the state variable."""
+    ops = {"and": "&&", "or": "||", "->": "==>", "<->": "<==>", "true": "\\true", "false": "\\false"}
+    return _c_like(expr, macro, ops, state)
+
+
+def c_ident(text: str) -> str:
+    """A C identifier fragment from a property or transition id (which may hold '-' or '.')."""
+    return re.sub(r"[^A-Za-z0-9_]", "_", text)
+
+
+def c_comment(text: str) -> str:
+    """Text safe inside a C block comment."""
+    return text.replace("*/", "* /").replace("/*", "/ *")
+
+
+def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
+    if not template_dir.is_dir():
+        raise CodegenError(f"{template_dir}: error: template directory not found")
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(template_dir)),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
+    env.filters.update(
+        negate=Not, show=show, py=py_expr, c=c_expr, ccond=c_condition, acsl=acsl_expr, cid=c_ident, ccomment=c_comment
+    )
+    return env
+
+
+def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
+    """Every generated file of one machine: relative path -> text."""
+    env = environment(template_dir)
+    files = {}
+    for pattern, name in TEMPLATES.items():
+        try:
+            template = env.get_template(name)
+            files[pattern.format(module=ir.module)] = template.render(m=ir)
+        except jinja2.TemplateError as err:
+            where = f"{template_dir / name}:{getattr(err, 'lineno', None) or 1}"
+            raise CodegenError(f"{where}: error: template failed: {err}") from None
+    return files

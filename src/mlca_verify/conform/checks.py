@@ -1,0 +1,278 @@
+"""The conformance checks of generated code against its spec, one function per check.
+
+(a) compile strictly and load, (b) exhaustive comparison of Python, C and z3, (c) random input sequences
+through Python and C with the monitor on, (d) Frama-C WP, (e) cppcheck and its MISRA addon, (f) a Cortex-M4
+cross build, (g) the exhaustive comparison again under AddressSanitizer and UndefinedBehaviorSanitizer.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mlca_verify.codegen.ir import MachineIR
+from mlca_verify.codegen.render import environment
+from mlca_verify.conform.reference import Reference
+from mlca_verify.conform.targets import CMachine, PyMachine, build_shared, load_python, valuations
+from mlca_verify.conform.tools import C_FLAGS, run
+from mlca_verify.errors import ToolError
+from mlca_verify.spec import LoadedSpec
+
+OUT_OF_RANGE = 3  # values past the last state tried as out-of-range states
+
+
+@dataclass
+class Outcome:
+    name: str
+    ok: bool
+    detail: str
+    seconds: float = 0.0
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "ok": self.ok,
+            "detail": self.detail,
+            "seconds": round(self.seconds, 3),
+            "data": self.data,
+        }
+
+
+@dataclass
+class Target:
+    """One spec and the generated files that claim to implement it."""
+
+    spec: LoadedSpec
+    ir: MachineIR
+    py_file: Path
+    c_file: Path
+    build: Path
+    sequences: int = 200
+    py: PyMachine | None = None
+    c: CMachine | None = None
+    reference: Reference | None = None
+
+    @property
+    def state_values(self) -> list[int]:
+        n = len(self.ir.states)
+        return list(range(n + OUT_OF_RANGE))
+
+    def state_name(self, value: int) -> str | None:
+        return self.ir.states[value] if 0 <= value < len(self.ir.states) else None
+
+
+Check = Callable[[Target], Outcome]
+
+
+def compile_and_load(t: Target) -> Outcome:
+    library = t.build / f"lib{t.ir.module}_fsm.so"
+    ran = build_shared(t.c_file, library)
+    if ran.returncode != 0:
+        return Outcome("compile", False, f"gcc {' '.join(C_FLAGS)} failed:\n{ran.output.strip()}")
+    t.c = CMachine(library, t.ir)
+    t.py = PyMachine(load_python(t.py_file, f"_conform_{t.ir.module}_fsm"))
+    warnings = ran.output.strip()
+    return Outcome("compile", True, f"gcc {' '.join(C_FLAGS)}: no diagnostics{warnings and ': ' + warnings}")
+
+
+def _expected(t: Target) -> dict[tuple[int, tuple[bool, ...]], tuple[int, bool, list[str]]]:
+    """(state value, inputs) -> (next state value, invariants hold, failing invariant ids), by z3."""
+    ref = t.reference = t.reference or Reference(t.spec.machine)
+    table = {}
+    for value in t.state_values:
+        name = t.state_name(value)
+        for inputs in valuations(ref.machine.input_names):
+            nxt = t.ir.states.index(ref.next_state(name, inputs))
+            failing = ["state-range"] if name is None else ref.failing_invariants(name, inputs)
+            table[(value, tuple(inputs.values()))] = (nxt, not failing, failing)
+    return table
+
+
+def exhaustive(t: Target) -> Outcome:
+    if t.py is None or t.c is None:
+        return Outcome("exhaustive", False, "not run: the code did not compile")
+    names = t.spec.machine.input_names
+    mismatches = []
+    table = _expected(t)
+    for (value, bits), (nxt, hold, failing) in table.items():
+        inputs = dict(zip(names, bits, strict=True))
+        got = (
+            t.py.step(value, inputs),
+            t.c.step(value, inputs),
+            t.py.invariants(value, inputs),
+            t.c.invariants_hold(value, inputs),
+        )
+        if got != (nxt, nxt, failing, hold):
+            mismatches.append(
+                f"state {value}, inputs {inputs}: z3 {nxt} {failing}, Python {got[0]} {got[2]}, C {got[1]} {got[3]}"
+            )
+    cases = len(table)
+    if mismatches:
+        return Outcome(
+            "exhaustive",
+            False,
+            f"{len(mismatches)} of {cases} cases differ; first: {mismatches[0]}",
+            data={"cases": cases},
+        )
+    detail = f"Python, C and z3 agree on all {cases} (state, inputs) cases, {OUT_OF_RANGE} out-of-range states included"
+    return Outcome("exhaustive", True, detail, data={"cases": cases})
+
+
+def sequences(t: Target) -> Outcome:
+    if t.py is None or t.c is None:
+        return Outcome("sequences", False, "not run: the code did not compile")
+    py, c = t.py, t.c
+    names = t.spec.machine.input_names
+    proved = {i.id for i in t.ir.invariants if i.proved}
+    steps = {"count": 0}
+
+    @settings(
+        max_examples=t.sequences,
+        deadline=None,
+        derandomize=True,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+    )
+    @given(st.lists(st.tuples(*[st.booleans() for _ in names]), max_size=60))
+    def run_sequence(seq: list[tuple[bool, ...]]) -> None:
+        sp = sc = t.ir.states.index(t.ir.initial)
+        for bits in seq:
+            inputs = dict(zip(names, bits, strict=True))
+            sp, sc = py.step(sp, inputs), c.step(sc, inputs)
+            assert sp == sc, f"Python went to {sp}, C to {sc}"
+            failing = py.invariants(sp, inputs)
+            assert (not failing) == c.invariants_hold(sc, inputs), f"monitors disagree: Python {failing}"
+            assert not proved & set(failing), f"monitor fired: {sorted(proved & set(failing))}"
+            steps["count"] += 1
+
+    try:
+        run_sequence()
+    except AssertionError as err:
+        return Outcome("sequences", False, f"a random input sequence broke it: {str(err).splitlines()[0]}")
+    detail = f"{t.sequences} random sequences ({steps['count']} steps) through Python and C: same states, monitor quiet"
+    return Outcome("sequences", True, detail, data={"sequences": t.sequences, "steps": steps["count"]})
+
+
+_WP_SUMMARY = re.compile(r"Proved goals:\s+(\d+)\s*/\s*(\d+)")
+_WP_BAD = re.compile(r"\[wp\] \[[^\]]+\] Goal (\S+) : (Timeout|Unknown|Failed|Stepout)")
+
+
+def frama_c(t: Target) -> Outcome:
+    ran = run(
+        ["frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-timeout", "30", "-wp-par", "2", str(t.c_file)],
+        timeout=900,
+        cwd=t.build,
+    )
+    summary = _WP_SUMMARY.search(ran.output)
+    if summary is None:
+        tail = "\n".join(ran.output.strip().splitlines()[-5:])
+        if "prover" in ran.output.lower():
+            raise ToolError(f"error: Frama-C WP found no prover; run `why3 config detect` ({tail})")
+        return Outcome("frama-c-wp", False, f"Frama-C did not report a proof:\n{tail}")
+    proved, total = int(summary.group(1)), int(summary.group(2))
+    unproved = [f"{g} ({why})" for g, why in _WP_BAD.findall(ran.output)]
+    data = {"proved": proved, "goals": total, "unproved": unproved}
+    if proved != total or ran.returncode != 0:
+        return Outcome(
+            "frama-c-wp", False, f"{proved} / {total} goals proved; not proved: {', '.join(unproved) or '?'}", data=data
+        )
+    return Outcome("frama-c-wp", True, f"frama-c -wp -wp-prover z3 -wp-rte: {proved} / {total} goals proved", data=data)
+
+
+CPPCHECK = ("cppcheck", "--std=c99", "--enable=all", "--inconclusive", "--error-exitcode=1", "--quiet",
+            "--suppress=missingIncludeSystem", "--suppress=unusedFunction", "--addon=misra")  # fmt: skip
+
+
+def cppcheck(t: Target) -> Outcome:
+    ran = run([*CPPCHECK, str(t.c_file)], timeout=300, cwd=t.build)
+    findings = [line for line in ran.output.splitlines() if re.search(r":\d+:\d+: ", line)]
+    if ran.returncode != 0 or findings:
+        first = findings[0] if findings else ran.output.strip()
+        return Outcome("cppcheck", False, f"{len(findings)} findings; first: {first}", data={"findings": findings})
+    detail = "cppcheck --enable=all --inconclusive --addon=misra: no findings (unusedFunction suppressed: a library)"
+    return Outcome("cppcheck", True, detail, data={"findings": []})
+
+
+ARM_FLAGS = ("-mcpu=cortex-m4", "-mthumb", "-Os")
+
+
+def cross_build(t: Target) -> Outcome:
+    obj = t.build / f"{t.ir.module}_fsm.arm.o"
+    ran = run(["arm-none-eabi-gcc", *C_FLAGS, *ARM_FLAGS, "-c", "-o", str(obj), str(t.c_file)], timeout=120)
+    if ran.returncode != 0:
+        return Outcome("cortex-m4", False, f"arm-none-eabi-gcc failed:\n{ran.output.strip()}")
+    size = run(["arm-none-eabi-size", str(obj)]).output.splitlines()[-1].split()
+    text, data, bss = (int(x) for x in size[:3])
+    symbols = run(["arm-none-eabi-nm", "-S", str(obj)]).output
+    step = re.search(rf"^[0-9a-f]+ ([0-9a-f]+) T {t.ir.module}_step$", symbols, re.MULTILINE)
+    step_bytes = int(step.group(1), 16) if step else -1
+    info = {"text": text, "data": data, "bss": bss, "step_text": step_bytes}
+    detail = f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}: text {text} B (step {step_bytes} B), data {data} B, bss {bss} B"
+    return Outcome("cortex-m4", data == 0 and bss == 0, detail, data=info)
+
+
+def sanitizers(t: Target) -> Outcome:
+    harness = t.build / f"{t.ir.module}_harness.c"
+    harness.write_text(
+        environment().get_template("c_harness.c.j2").render(m=t.ir, extra=OUT_OF_RANGE), encoding="utf-8"
+    )
+    exe = t.build / f"{t.ir.module}_harness"
+    flags = ("-g", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer")
+    ran = run(
+        ["gcc", *C_FLAGS, *flags, f"-I{t.c_file.parent}", "-o", str(exe), str(harness), str(t.c_file)], timeout=120
+    )
+    if ran.returncode != 0:
+        return Outcome("sanitizers", False, f"build failed:\n{ran.output.strip()}")
+    env = dict(os.environ, ASAN_OPTIONS="detect_leaks=1:abort_on_error=0", UBSAN_OPTIONS="print_stacktrace=1")
+    done = run([str(exe)], timeout=120, env=env)
+    if done.returncode != 0:
+        return Outcome("sanitizers", False, f"the harness failed under ASan/UBSan:\n{done.output.strip()[-2000:]}")
+    table = _expected(t)
+    got = {}
+    for line in done.output.splitlines():
+        value, bits, nxt, hold = (int(x) for x in line.split())
+        key = tuple(bool(bits >> k & 1) for k in range(len(t.ir.inputs)))
+        got[(value, key)] = (nxt, bool(hold))
+    want = {k: (v[0], v[1]) for k, v in table.items()}
+    if got != want:
+        bad = sorted(k for k in want if got.get(k) != want[k])
+        return Outcome(
+            "sanitizers", False, f"{len(bad)} of {len(want)} cases differ under sanitizers; first: {bad[:1]}"
+        )
+    return Outcome(
+        "sanitizers",
+        True,
+        f"-fsanitize=address,undefined: all {len(want)} cases agree, no reports",
+        data={"cases": len(want)},
+    )
+
+
+CHECKS: dict[str, Check] = {
+    "compile": compile_and_load,
+    "exhaustive": exhaustive,
+    "sequences": sequences,
+    "frama-c-wp": frama_c,
+    "cppcheck": cppcheck,
+    "cortex-m4": cross_build,
+    "sanitizers": sanitizers,
+}
+
+
+def run_checks(t: Target, names: list[str], report: Callable[[Outcome], None]) -> list[Outcome]:
+    outcomes = []
+    for name in names:
+        start = time.perf_counter()
+        outcome = CHECKS[name](t)
+        outcome.seconds = time.perf_counter() - start
+        report(outcome)
+        outcomes.append(outcome)
+    return outcomes
