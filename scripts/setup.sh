@@ -6,8 +6,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PYTHON=${PYTHON:-python3}
-# Debian packages the toolchain relies on (python3-venv only where the interpreter lacks venv/ensurepip).
-SYSTEM_PACKAGES=()
+# Debian packages the toolchain relies on (python3-venv only where the interpreter lacks venv/ensurepip):
+# a C compiler with sanitizers, Frama-C with WP, Why3 and z3 (the prover WP calls), cppcheck (with its MISRA
+# addon), the Cortex-M cross compiler with its C library, and valgrind for the benchmarks.
+SYSTEM_PACKAGES=(gcc libc6-dev frama-c-base why3 z3 cppcheck gcc-arm-none-eabi libnewlib-arm-none-eabi valgrind)
 
 apt_install() {
     local sudo=""
@@ -35,6 +37,12 @@ if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
 fi
 if [ "${#missing[@]}" -gt 0 ]; then
     apt_install "${missing[@]}"
+fi
+
+# Frama-C's WP finds provers through Why3's configuration.
+if ! grep -q "name = \"Z3\"" "${HOME}/.why3.conf" 2>/dev/null; then
+    echo "setup: detecting provers for Why3"
+    why3 config detect >/dev/null
 fi
 
 if [ ! -x .venv/bin/python ]; then

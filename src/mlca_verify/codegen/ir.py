@@ -8,10 +8,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mlca_verify.codegen.simplify import in_context
+from mlca_verify.codegen.simplify import fold, in_context
 from mlca_verify.errors import CodegenError
 from mlca_verify.logic.solver import Solver
-from mlca_verify.model import Expr, Machine
+from mlca_verify.model import Expr, Machine, inputs_of
 
 GENERATOR_NAME = "mlca-verify"
 
@@ -45,6 +45,7 @@ class InvariantIR:
     id: str
     expr: Expr
     cite: str
+    code: Expr  # the same expression with constant parts folded
     proved: bool  # expected to hold: stated as a contract on the step function, not only monitored
 
 
@@ -65,6 +66,8 @@ class MachineIR:
     # how many leading branches every state shares (`from = "*"` transitions to the initial state): the code
     # tests them once, before the switch; out-of-range states still end in the initial state
     hoisted: int
+    step_reads_inputs: bool  # C needs `(void)in;` where no condition reads an input
+    invariants_read_inputs: bool
     otherwise_cite: str
     invariants: tuple[InvariantIR, ...]
     reachable: tuple[str, ...]
@@ -104,7 +107,11 @@ def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, r
         inputs=tuple(InputIR(i.name, i.doc, i.cite) for i in machine.inputs),
         cases=tuple(cases),
         hoisted=hoisted,
+        step_reads_inputs=any(inputs_of(b.code) for case in cases for b in case.branches),
+        invariants_read_inputs=any(inputs_of(fold(i.expr, solver)) for i in machine.invariants),
         otherwise_cite=machine.cite,
-        invariants=tuple(InvariantIR(i.id, i.expr, i.cite, i.expect == "holds") for i in machine.invariants),
+        invariants=tuple(
+            InvariantIR(i.id, i.expr, i.cite, fold(i.expr, solver), i.expect == "holds") for i in machine.invariants
+        ),
         reachable=reachable,
     )

@@ -168,7 +168,7 @@ _WP_BAD = re.compile(r"\[wp\] \[[^\]]+\] Goal (\S+) : (Timeout|Unknown|Failed|St
 
 def frama_c(t: Target) -> Outcome:
     ran = run(
-        ["frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-timeout", "30", "-wp-par", "2", str(t.c_file)],
+        ["frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-timeout", "10", "-wp-par", "2", str(t.c_file)],
         timeout=900,
         cwd=t.build,
     )

@@ -1,0 +1,155 @@
+"""conform: the real compilers, prover and checkers on the shipped specs, on broken code, on random specs."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+from mlca_verify.cli import main
+from mlca_verify.codegen import generate, machine_ir, write
+from mlca_verify.codegen.render import TEMPLATE_DIR
+from mlca_verify.conform import conform
+from mlca_verify.conform.checks import Outcome, Target, cppcheck, frama_c
+from mlca_verify.logic import check_all
+from mlca_verify.model import Machine
+from mlca_verify.spec import LoadedSpec, load_spec
+from tests.strategies import machines
+
+ROOT = Path(__file__).parent.parent
+FIXTURES = Path(__file__).parent / "fixtures"
+
+
+def quiet(_: Outcome) -> None:
+    pass
+
+
+@pytest.mark.slow
+def test_shipped_specs_pass_every_check(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "conform.json"
+    assert main(["conform", "spec/mlca.toml", "spec/mlca_r.toml", "--json", str(out), "--sequences", "100"]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "mlca-verify.conform/1"
+    for spec in doc["specs"]:
+        checks = {c["name"]: c for c in spec["checks"]}
+        assert list(checks) == [
+            "up-to-date",
+            "compile",
+            "exhaustive",
+            "sequences",
+            "frama-c-wp",
+            "cppcheck",
+            "cortex-m4",
+            "sanitizers",
+        ]
+        assert all(c["ok"] for c in checks.values()), spec
+        wp = checks["frama-c-wp"]["data"]
+        assert wp["proved"] == wp["goals"] > 100
+        assert checks["exhaustive"]["data"]["cases"] == (4 + 3) * 16
+        assert 0 < checks["cortex-m4"]["data"]["step_text"] <= 128
+
+
+def _target(c_file: Path, build: Path) -> Target:
+    spec = load_spec(ROOT / "spec/mlca.toml", compare=False)
+    return Target(spec, machine_ir(spec, ROOT / "generated"), c_file, c_file, build)
+
+
+@pytest.mark.slow
+def test_hand_broken_copy_fails_the_proof(tmp_path: Path) -> None:
+    outcome = frama_c(_target(FIXTURES / "broken" / "mlca_fsm.c", tmp_path))
+    assert not outcome.ok
+    assert outcome.data["proved"] < outcome.data["goals"]
+    assert any("IDLE_3_idle_left" in goal for goal in outcome.data["unproved"]), outcome.data["unproved"]
+
+
+def test_cppcheck_runs_its_misra_addon(tmp_path: Path) -> None:
+    outcome = cppcheck(_target(FIXTURES / "misra_violation.c", tmp_path))
+    assert not outcome.ok
+    assert any("misra-c2012-15.1" in f for f in outcome.data["findings"]), outcome.data["findings"]
+
+
+def _conform_with_templates(templates: Path, tmp_path: Path, checks: list[str]) -> dict[str, Outcome]:
+    spec = load_spec(ROOT / "spec/mlca.toml", compare=False)
+    out = tmp_path / "generated"
+    write(generate(spec, out, templates), out)
+    result = conform(spec, out, checks, quiet, sequences=50, template_dir=templates)
+    return {o.name: o for o in result.outcomes}
+
+
+@pytest.mark.parametrize(
+    ("template", "old", "new", "caught_by"),
+    [
+        ("c_fsm.c.j2", "    next = {{ M }}_{{ b.target }};\n{% endfor %}\n{% if branches %}",
+         "    next = {{ M }}_{{ b.target if not loop.last else m.initial }};\n{% endfor %}\n{% if branches %}", "exhaustive"),
+        ("python_fsm.py.j2", "            return State.{{ b.target }}", "            return State.{{ case.state }}", "exhaustive"),
+        ("c_fsm.c.j2", "next = {{ M }}_INITIAL;", "next = {{ M }}_{{ m.states[-1] }};", "exhaustive"),
+    ],
+    ids=["C: last branch of each state to the initial state", "Python: every branch stays", "C: out-of-range to the wrong state"],
+)  # fmt: skip
+def test_template_bug_is_caught_by_conform(template: str, old: str, new: str, caught_by: str, tmp_path: Path) -> None:
+    templates = tmp_path / "codegen"
+    shutil.copytree(TEMPLATE_DIR, templates)
+    path = templates / template
+    assert old in path.read_text()
+    path.write_text(path.read_text().replace(old, new))
+    outcomes = _conform_with_templates(templates, tmp_path, ["compile", "exhaustive", "sequences", "sanitizers"])
+    assert outcomes["compile"].ok
+    assert not outcomes[caught_by].ok, outcomes[caught_by].detail
+
+
+@pytest.mark.slow
+def test_template_bug_in_c_fails_the_proof_too(tmp_path: Path) -> None:
+    templates = tmp_path / "codegen"
+    shutil.copytree(TEMPLATE_DIR, templates)
+    path = templates / "c_fsm.c.j2"
+    path.write_text(path.read_text().replace("next = {{ M }}_INITIAL;", "next = {{ M }}_{{ m.states[-1] }};"))
+    outcomes = _conform_with_templates(templates, tmp_path, ["frama-c-wp"])
+    assert not outcomes["frama-c-wp"].ok
+    assert any("out_of_range" in g for g in outcomes["frama-c-wp"].data["unproved"])
+
+
+def _random_spec(machine: Machine) -> LoadedSpec:
+    """A random first-match machine whose invariants expect what the engine proves of them."""
+    machine = replace(machine, semantics="first-match", otherwise="stay")
+    verdicts = {r.prop: r.verdict for r in check_all(machine)}
+    invariants = tuple(replace(i, expect=verdicts[i.id]) for i in machine.invariants)
+    return LoadedSpec("random.toml", "0" * 64, replace(machine, invariants=invariants))
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=list(HealthCheck))
+@given(machines(max_states=6, max_inputs=4))
+def test_random_specs_generate_compile_and_agree(machine: Machine) -> None:
+    spec = _random_spec(machine)
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "generated"
+        write(generate(spec, out), out)
+        result = conform(spec, out, ["compile", "exhaustive", "sequences"], quiet, sequences=20)
+        assert result.ok, [(o.name, o.detail) for o in result.outcomes if not o.ok]
+
+
+@pytest.mark.slow
+@settings(max_examples=2, deadline=None, suppress_health_check=list(HealthCheck))
+@given(machines(max_states=5, max_inputs=3))
+def test_random_specs_pass_the_proof_and_the_sanitizers(machine: Machine) -> None:
+    spec = _random_spec(machine)
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "generated"
+        write(generate(spec, out), out)
+        result = conform(spec, out, ["compile", "frama-c-wp", "sanitizers"], quiet)
+        assert result.ok, [(o.name, o.detail) for o in result.outcomes if not o.ok]
+
+
+def test_missing_generated_code_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["conform", str(ROOT / "spec/mlca.toml"), "--generated", str(tmp_path)]) == 2
+    assert "generated file not found; run `mlca-verify gen" in capsys.readouterr().err
+
+
+def test_unknown_check_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["conform", str(ROOT / "spec/mlca.toml"), "--only", "lint"]) == 2
+    assert "unknown checks: lint" in capsys.readouterr().err
