@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Set up, then run the whole test suite: lint (ruff), types (mypy, strict on src/), and every test (pytest),
-# slow ones included.
+# Set up, then run the whole test suite: lint (ruff), types (mypy, strict on src/), the drift check of the
+# generated code, and every test (pytest), slow ones included.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 .venv/bin/ruff check src tests bench scripts
 .venv/bin/ruff format --check src tests bench scripts
 .venv/bin/mypy
+.venv/bin/mlca-verify gen --check
 .venv/bin/pytest -n 2 "$@"
