@@ -127,8 +127,8 @@ def cmd_gen(args: argparse.Namespace) -> int:
             return EXIT_FINDING
         print(f"{len(files)} generated files up to date in {out}/")
         return EXIT_OK
-    for path in write(files, out):
-        print(f"wrote {path}")
+    for path, changed in write(files, out):
+        print(f"{'wrote' if changed else 'unchanged'} {path}")
     return EXIT_OK
 
 

@@ -43,15 +43,17 @@ def generate(spec: LoadedSpec, out_dir: Path, template_dir: Path = TEMPLATE_DIR)
     return render(machine_ir(spec, out_dir), template_dir)
 
 
-def write(files: dict[str, str], out_dir: Path) -> list[Path]:
-    written = []
+def write(files: dict[str, str], out_dir: Path) -> list[tuple[Path, bool]]:
+    """Write the files whose text changed; return every path with whether it was written."""
+    result = []
     for rel in sorted(files):
         path = out_dir / rel
         path.parent.mkdir(parents=True, exist_ok=True)
-        if not path.exists() or path.read_text(encoding="utf-8") != files[rel]:
+        changed = not path.exists() or path.read_text(encoding="utf-8") != files[rel]
+        if changed:
             path.write_text(files[rel], encoding="utf-8")
-        written.append(path)
-    return written
+        result.append((path, changed))
+    return result
 
 
 @dataclass(frozen=True)
