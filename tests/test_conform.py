@@ -153,3 +153,16 @@ def test_missing_generated_code_is_a_usage_error(tmp_path: Path, capsys: pytest.
 def test_unknown_check_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["conform", str(ROOT / "spec/mlca.toml"), "--only", "lint"]) == 2
     assert "unknown checks: lint" in capsys.readouterr().err
+
+
+def test_hand_edit_of_generated_code_makes_conform_exit_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "generated"
+    shutil.copytree(ROOT / "generated", out)
+    c_file = out / "c" / "mlca_fsm.c"
+    c_file.write_text(c_file.read_text().replace("next = MLCA_MOVING_LEFT;", "next = MLCA_MOVING_RIGHT;", 1))
+    shutil.copytree(ROOT / "spec", tmp_path / "spec")
+    spec = str(tmp_path / "spec" / "mlca.toml")
+    assert main(["conform", spec, "--generated", str(out), "--only", "compile,exhaustive"]) == 1
+    printed = capsys.readouterr().out
+    assert "up-to-date  FAIL  c/mlca_fsm.c differs from what the spec and templates produce: run" in printed
+    assert "exhaustive  FAIL" in printed
