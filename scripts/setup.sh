@@ -8,8 +8,10 @@ cd "$(dirname "$0")/.."
 PYTHON=${PYTHON:-python3}
 # Debian packages the toolchain relies on (python3-venv only where the interpreter lacks venv/ensurepip):
 # a C compiler with sanitizers, Frama-C with WP, Why3 and z3 (the prover WP calls), cppcheck (with its MISRA
-# addon), the Cortex-M cross compiler with its C library, and valgrind for the benchmarks.
-SYSTEM_PACKAGES=(gcc libc6-dev frama-c-base why3 z3 cppcheck gcc-arm-none-eabi libnewlib-arm-none-eabi valgrind)
+# addon), the Cortex-M cross compiler with its C library, valgrind for the benchmarks, Graphviz for SVG
+# diagrams, Chromium for the evidence page's browser test.
+SYSTEM_PACKAGES=(gcc libc6-dev frama-c-base why3 z3 cppcheck gcc-arm-none-eabi libnewlib-arm-none-eabi valgrind
+                 graphviz chromium)
 
 apt_install() {
     local sudo=""
@@ -35,8 +37,18 @@ done
 if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
     missing+=("python3-venv")
 fi
+# Node.js runs SCION, the W3C SCXML interpreter the diagram tests use (tools/scxml).
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+    missing+=("nodejs" "npm")
+fi
 if [ "${#missing[@]}" -gt 0 ]; then
     apt_install "${missing[@]}"
+fi
+lock_stamp="tools/scxml/node_modules/.setup-$(sha256sum tools/scxml/package-lock.json | cut -c1-16)"
+if [ ! -f "$lock_stamp" ]; then
+    echo "setup: installing the SCXML interpreter used by the tests (tools/scxml)"
+    (cd tools/scxml && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+    touch "$lock_stamp"
 fi
 
 # Frama-C's WP finds provers through Why3's configuration.

@@ -15,7 +15,10 @@ from mlca_verify import __version__, report
 from mlca_verify.codegen import drift, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import Outcome
-from mlca_verify.errors import MlcaError, UsageError
+from mlca_verify.conform.tools import run
+from mlca_verify.diagram import FORMATS
+from mlca_verify.diagram import render as render_diagram
+from mlca_verify.errors import MlcaError, ToolError, UsageError
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
@@ -61,6 +64,11 @@ def _parser() -> argparse.ArgumentParser:
     conform.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.conform/1)")
     conform.add_argument("--only", metavar="CHECKS", help=f"comma-separated subset of: {', '.join(CHECKS)}")
     conform.add_argument("--sequences", type=int, default=200, help="random input sequences to run (default 200)")
+
+    diagram = sub.add_parser("diagram", help="draw a machine: Graphviz DOT, Mermaid, W3C SCXML, or SVG")
+    diagram.add_argument("spec", metavar="SPEC", help="spec file")
+    diagram.add_argument("--format", choices=[*FORMATS, "svg"], default="dot", help="output format (default dot)")
+    diagram.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
     return parser
 
 
@@ -158,11 +166,39 @@ def cmd_conform(args: argparse.Namespace) -> int:
     return EXIT_OK if all(r.ok for r in results) else EXIT_FINDING
 
 
+def svg_of(dot_text: str) -> str:
+    """Lay a DOT graph out as SVG with Graphviz."""
+    ran = run(["dot", "-Tsvg"], timeout=60, stdin=dot_text)
+    if ran.returncode != 0:
+        raise ToolError(f"error: dot failed: {ran.output.strip()}")
+    return ran.output
+
+
+def cmd_diagram(args: argparse.Namespace) -> int:
+    machine = load_spec(args.spec, compare=False).machine
+    text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
+    if args.out:
+        try:
+            Path(args.out).write_text(text, encoding="utf-8")
+        except OSError as err:
+            raise UsageError(f"{args.out}: error: cannot write: {err.strerror or err}") from None
+    else:
+        sys.stdout.write(text)
+    return EXIT_OK
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; return the exit code. User mistakes print one line on stderr and return 2."""
     try:
         args = _parser().parse_args(argv)
-        command = {"check": cmd_check, "diff": cmd_diff, "gen": cmd_gen, "conform": cmd_conform}[args.command]
+        commands = {
+            "check": cmd_check,
+            "diff": cmd_diff,
+            "gen": cmd_gen,
+            "conform": cmd_conform,
+            "diagram": cmd_diagram,
+        }
+        command = commands[args.command]
         return command(args)
     except MlcaError as err:
         print(str(err).splitlines()[0], file=sys.stderr)

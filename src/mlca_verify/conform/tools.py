@@ -29,21 +29,30 @@ def require(tool: str) -> str:
 
 
 def run(
-    command: Sequence[str], timeout: float = 300, cwd: Path | None = None, env: dict[str, str] | None = None
+    command: Sequence[str],
+    timeout: float = 300,
+    cwd: Path | None = None,
+    env: dict[str, str] | None = None,
+    stdin: str | None = None,
 ) -> Ran:
-    """Run a tool; a missing tool or a hang is a `ToolError`, a non-zero exit is for the caller to judge."""
+    """Run a tool; a missing tool or a hang is a `ToolError`, a non-zero exit is for the caller to judge.
+
+    Without `stdin` the output is stdout and stderr together; with it (a filter such as `dot`), stdout alone
+    unless the tool fails."""
     require(command[0])
     try:
         done = subprocess.run(
             list(command),
             cwd=cwd,
             env=env,
+            input=stdin,
             stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
+            stderr=subprocess.STDOUT if stdin is None else subprocess.PIPE,
             text=True,
             timeout=timeout,
             check=False,
         )
     except subprocess.TimeoutExpired:
         raise ToolError(f"error: {command[0]} did not finish within {timeout:.0f} s") from None
-    return Ran(tuple(command), done.returncode, done.stdout)
+    output = done.stdout if done.returncode == 0 or stdin is None else done.stdout + (done.stderr or "")
+    return Ran(tuple(command), done.returncode, output)

@@ -1,0 +1,116 @@
+"""Diagrams of a machine: Graphviz DOT, Mermaid, and W3C SCXML (pure text, no I/O).
+
+Transitions are drawn in priority order; under first-match semantics each label starts with its priority.
+`from = "*"` transitions are drawn from every state. `otherwise = "stay"` is not drawn (no edge: the state
+is kept); under `otherwise = "undefined"` the same absence is a gap, which the caption says.
+"""
+
+from __future__ import annotations
+
+from xml.sax.saxutils import escape, quoteattr
+
+from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, show
+
+FORMATS = ("dot", "mermaid", "scxml")
+
+
+def _edges(m: Machine) -> list[tuple[str, int, Transition]]:
+    """(source state, priority within the source, transition), states in declaration order."""
+    edges = []
+    for state in m.states:
+        for priority, t in enumerate(m.outgoing(state), start=1):
+            edges.append((state, priority, t))
+    return edges
+
+
+def _label(m: Machine, priority: int, t: Transition) -> str:
+    prefix = f"{priority}. " if m.semantics == "first-match" else ""
+    return f"{prefix}{show(t.guard)}"
+
+
+def caption(m: Machine) -> str:
+    order = (
+        "numbers give priority (first match fires)"
+        if m.semantics == "first-match"
+        else "no priority (any enabled edge may fire)"
+    )
+    rest = "no enabled edge: the state is kept" if m.otherwise == "stay" else "no enabled edge: undefined (a gap)"
+    return f"{m.name} ({m.cite}): {order}; {rest}"
+
+
+def to_dot(m: Machine) -> str:
+    lines = [
+        f"digraph {m.name} {{",
+        "  rankdir=LR;",
+        f"  label={_dot_str(caption(m))}; labelloc=b; fontsize=10;",
+        '  node [shape=ellipse, fontname="Helvetica"]; edge [fontname="Helvetica", fontsize=9];',
+        '  __start [shape=point, label=""];',
+        f"  __start -> {m.initial};",
+    ]
+    lines += [f"  {s};" for s in m.states]
+    for state, priority, t in _edges(m):
+        label = _dot_str(f"{_label(m, priority, t)}\n[{t.id}]")
+        lines.append(f"  {state} -> {t.target} [label={label}, tooltip={_dot_str(t.cite)}];")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def _dot_str(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+
+
+def to_mermaid(m: Machine) -> str:
+    lines = ["stateDiagram-v2", f"    %% {caption(m)}", f"    [*] --> {m.initial}"]
+    for state, priority, t in _edges(m):
+        label = _label(m, priority, t).replace("<->", "iff").replace("->", "implies").replace(":", " ")
+        lines.append(f"    {state} --> {t.target}: {label}")
+    return "\n".join(lines) + "\n"
+
+
+def js_expr(expr: Expr) -> str:
+    """An ECMAScript condition over the inputs carried by the `step` event."""
+    if isinstance(expr, Const):
+        return "true" if expr.value else "false"
+    if isinstance(expr, Var):
+        return f"_event.data.{expr.name}"
+    if isinstance(expr, StateIn):
+        raise ValueError("guards do not mention the state")
+    if isinstance(expr, Not):
+        return f"!({js_expr(expr.arg)})"
+    a, b = js_expr(expr.left), js_expr(expr.right)
+    return {"and": f"({a} && {b})", "or": f"({a} || {b})", "->": f"(!{a} || {b})", "<->": f"({a} === {b})"}[expr.op]
+
+
+def to_scxml(m: Machine) -> str:
+    """SCXML with one event, `step`, whose data holds the inputs. SCXML takes the first enabled transition in
+    document order, which is first-match semantics; with no enabled transition the event changes nothing."""
+    out = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f"<!-- {escape(caption(m))} -->",
+        "<!-- Send one event named 'step' per step, its data an object of booleans: "
+        + escape(", ".join(m.input_names))
+        + " -->",
+    ]
+    if m.semantics != "first-match":
+        out.append("<!-- This machine is nondeterministic; SCXML resolves each choice by document order. -->")
+    out.append(
+        f'<scxml xmlns="http://www.w3.org/2005/07/scxml" version="1.0" name={quoteattr(m.name)} '
+        f'initial={quoteattr(m.initial)} datamodel="ecmascript">'
+    )
+    for state in m.states:
+        out.append(f"  <state id={quoteattr(state)}>")
+        for t in m.outgoing(state):
+            out.append(f"    <!-- {escape(t.id)}: {escape(show(t.guard))} ({escape(t.cite)}) -->")
+            out.append(
+                f'    <transition event="step" cond={quoteattr(js_expr(t.guard))} target={quoteattr(t.target)}/>'
+            )
+        out.append("  </state>")
+    out.append("</scxml>")
+    return "\n".join(out) + "\n"
+
+
+def render(m: Machine, fmt: str) -> str:
+    return {"dot": to_dot, "mermaid": to_mermaid, "scxml": to_scxml}[fmt](m)
+
+
+__all__ = ["FORMATS", "caption", "js_expr", "render"]
