@@ -80,12 +80,35 @@ def test_only_filters_and_rejects_unknown_names(capsys: pytest.CaptureFixture[st
     assert "unknown properties: A9" in capsys.readouterr().err
 
 
-def test_diff_exit_codes(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["diff", "spec/mlca.toml", "spec/paper/prose.toml"]) == 1
+def test_diff_is_a_regression_gate(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", "spec/mlca.toml", "spec/mlca_r.toml"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "gap-taken violated holds fixed" in out
+    assert "wait_left added -" in out and "wait_exit removed WAITING -> IDLE when N and (L or R)" in out
+    assert "WAITING N and L wait_exit -> IDLE wait_left -> MOVING_LEFT 1100 1010" in out
+    assert out.endswith("no regression: every property that held before still holds (10 verdicts changed)")
+    assert main(["diff", "spec/mlca_r.toml", "spec/mlca.toml"]) == 1
+    out = " ".join(capsys.readouterr().out.split())
+    assert "gap-taken holds violated REGRESSION" in out
+    assert "5 regressions: no-move-without-gap, gap-taken, left-gap-taken-left," in out
+
+
+def test_diff_of_equivalent_machines(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", "tests/corpus/pingpong_twin.toml", "tests/corpus/pingpong.toml"]) == 0
     out = capsys.readouterr().out
-    assert "WAITING       N and L" in out and "wait_exit -> IDLE" in out
-    assert main(["diff", "tests/corpus/pingpong.toml", "tests/corpus/pingpong_twin.toml"]) == 0
-    assert "are equivalent" in capsys.readouterr().out
+    assert "are equivalent" in out and "transitions (matched by id):" in out
+
+
+def test_removing_a_declared_property_that_held_is_a_regression(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = (ROOT / "spec/mlca.toml").read_text()
+    start = text.index('[[invariant]]\nid = "A4"')
+    end = text.index("[[invariant]]", start + 5)
+    (tmp_path / "mlca.toml").write_text(text[:start] + text[end:])
+    assert main(["diff", "spec/mlca.toml", str(tmp_path / "mlca.toml")]) == 1
+    out = " ".join(capsys.readouterr().out.split())
+    assert "A4 holds - REGRESSION (removed)" in out and "1 regression: A4 held before" in out
 
 
 def test_console_script_runs_as_a_process() -> None:

@@ -7,21 +7,24 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mlca_verify import __version__, report
+from mlca_verify import __version__, ci_formats, report
 from mlca_verify.codegen import drift, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import Outcome
 from mlca_verify.conform.tools import run
 from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
+from mlca_verify.emit import emit
 from mlca_verify.errors import MlcaError, ToolError, UsageError
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
+from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
 
 EXIT_OK, EXIT_FINDING, EXIT_USAGE = 0, 1, 2
@@ -43,10 +46,16 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--only", metavar="IDS", help="comma-separated property names to report (others are hidden)")
     check.add_argument("--quiet", action="store_true", help="print only the one-line summary per spec")
     check.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
+    check.add_argument("--junit", metavar="FILE", help="also write JUnit XML: one test case per property")
+    check.add_argument("--sarif", metavar="FILE", help="also write SARIF 2.1.0: findings at their spec lines")
+    check.add_argument("--emit-tests", metavar="DIR", help="write a pytest and a C test replaying each violation")
+    check.add_argument("--generated", default="generated", metavar="DIR", help="generated code the tests use")
 
-    diff = sub.add_parser("diff", help="where two machines behave differently, and the shortest sequence showing it")
-    diff.add_argument("left", metavar="A", help="first spec")
-    diff.add_argument("right", metavar="B", help="second spec")
+    diff = sub.add_parser(
+        "diff", help="regression gate: verdicts, transitions and behaviour that changed from OLD to NEW"
+    )
+    diff.add_argument("left", metavar="OLD", help="the spec before the change")
+    diff.add_argument("right", metavar="NEW", help="the spec after the change")
     diff.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
 
     gen = sub.add_parser("gen", help="generate Python and C99 code from specs (or check generated/ for drift)")
@@ -72,11 +81,15 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _write_json(path: str, document: object) -> None:
+def _write_text(path: str, text: str) -> None:
     try:
-        Path(path).write_text(json.dumps(document, indent=2, sort_keys=False) + "\n", encoding="utf-8")
+        Path(path).write_text(text, encoding="utf-8")
     except OSError as err:
         raise UsageError(f"{path}: error: cannot write: {err.strerror or err}") from None
+
+
+def _write_json(path: str, document: object) -> None:
+    _write_text(path, json.dumps(document, indent=2, sort_keys=False) + "\n")
 
 
 def _select(results: list[Result], only: str | None) -> list[Result]:
@@ -92,26 +105,53 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
 
 def cmd_check(args: argparse.Namespace) -> int:
     loaded: list[LoadedSpec] = [load_spec(p) for p in args.specs]
-    outcomes = []
-    all_ok = True
+    checked: list[tuple[LoadedSpec, list[Result]]] = []
     for spec in loaded:
         results = _select(check_all(spec.machine, args.timeout_ms), args.only)
-        all_ok &= all(r.ok for r in results)
-        outcomes.append((spec.path, spec.sha256, spec.machine.name, results))
+        checked.append((spec, results))
         if not args.quiet:
             print(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names))
         print(f"{spec.path}: {report.summary_text(results)}\n")
     if args.json:
-        _write_json(args.json, report.check_document(outcomes))
-    return EXIT_OK if all_ok else EXIT_FINDING
+        _write_json(args.json, report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
+    for_ci = [(s.path, s.machine, r) for s, r in checked]
+    if args.junit:
+        _write_text(args.junit, ci_formats.junit_xml(for_ci))
+    if args.sarif:
+        _write_json(args.sarif, ci_formats.sarif(for_ci))
+    if args.emit_tests:
+        _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
+    return EXIT_OK if all(r.ok for _, results in checked for r in results) else EXIT_FINDING
+
+
+def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
+    for spec, results in checked:
+        if spec.machine.semantics != "first-match":
+            print(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
+            continue
+        try:
+            written = emit(spec, results, generated, out)
+        except OSError as err:
+            raise UsageError(f"{out}: error: cannot write tests: {err.strerror or err}") from None
+        for path in written:
+            print(f"wrote {path}")
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
-    left, right = load_spec(args.left, compare=False), load_spec(args.right, compare=False)
-    found = compare(left.machine, right.machine, args.timeout_ms, all_regions=True)
-    names = left.machine.input_names + tuple(n for n in right.machine.input_names if n not in left.machine.input_names)
-    print(report.diff_text(left.machine.name, right.machine.name, found, names))
-    return {"holds": EXIT_OK, "violated": EXIT_FINDING, "unknown": EXIT_FINDING}[found.verdict]
+    old, new = load_spec(args.left), load_spec(args.right)
+    changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
+    print(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
+    print(report.regression_text(changes, transition_changes(old.machine, new.machine)))
+    found = compare(old.machine, new.machine, args.timeout_ms, all_regions=True)
+    names = old.machine.input_names + tuple(n for n in new.machine.input_names if n not in old.machine.input_names)
+    print(report.diff_text(old.machine.name, new.machine.name, found, names))
+    regressions = [c.prop for c in changes if c.regression]
+    if regressions:
+        noun = "regression" if len(regressions) == 1 else "regressions"
+        print(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
+        return EXIT_FINDING
+    print(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
+    return EXIT_OK
 
 
 def _default_specs() -> list[str]:
@@ -178,10 +218,7 @@ def cmd_diagram(args: argparse.Namespace) -> int:
     machine = load_spec(args.spec, compare=False).machine
     text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
     if args.out:
-        try:
-            Path(args.out).write_text(text, encoding="utf-8")
-        except OSError as err:
-            raise UsageError(f"{args.out}: error: cannot write: {err.strerror or err}") from None
+        _write_text(args.out, text)
     else:
         sys.stdout.write(text)
     return EXIT_OK
@@ -206,4 +243,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def entry() -> None:
-    sys.exit(main())
+    try:
+        code = main()
+        sys.stdout.flush()
+    except BrokenPipeError:  # the reader went away (`| head`): not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = EXIT_OK
+    sys.exit(code)

@@ -7,6 +7,7 @@ from typing import Any
 
 from mlca_verify.logic.equiv import Comparison, Region
 from mlca_verify.logic.results import Counterexample, Outcome, Result
+from mlca_verify.regress import TransitionChange, VerdictChange
 
 CHECK_SCHEMA = "mlca-verify.check/1"
 CITE_WIDTH = 60
@@ -103,13 +104,33 @@ def _short_outcome(o: Outcome) -> str:
     return "no transition" if o.transition is None else f"{o.transition} -> {o.next}"
 
 
-def regions_text(regions: Sequence[Region], left_name: str, right_name: str) -> str:
+def bits(inputs: dict[str, bool], names: Sequence[str]) -> str:
+    return "".join("1" if inputs.get(n) else "0" for n in names)
+
+
+def regions_text(regions: Sequence[Region], left_name: str, right_name: str, names: Sequence[str]) -> str:
     rows = []
     for r in regions:
         left = "; ".join(_short_outcome(o) for o in r.left)
         right = "; ".join(_short_outcome(o) for o in r.right)
-        rows.append([r.state, cube_text(r.cube), left, right])
-    return table(["state", "when", left_name, right_name], rows, "  ")
+        rows.append([r.state, cube_text(r.cube), left, right, " ".join(bits(w, names) for w in r.witness)])
+    witness = f"witness ({''.join(names)} per step)"
+    return table(["state", "when", left_name, right_name, witness], rows, "  ")
+
+
+def regression_text(changes: Sequence[VerdictChange], transitions: Sequence[TransitionChange]) -> str:
+    parts = []
+    if changes:
+        rows = [[c.prop, c.old or "-", c.new or "-", c.label] for c in changes]
+        parts += ["verdicts that changed:", table(["property", "old", "new", ""], rows, "  "), ""]
+    else:
+        parts += ["verdicts: none changed", ""]
+    if transitions:
+        rows = [[t.id, t.change, t.old or "-", t.new or "-"] for t in transitions]
+        parts += ["transitions (matched by id):", table(["id", "change", "old", "new"], rows, "  "), ""]
+    else:
+        parts += ["transitions: none added, removed or changed", ""]
+    return "\n".join(parts)
 
 
 def diff_text(left: str, right: str, comparison: Comparison, inputs: Sequence[str]) -> str:
@@ -120,7 +141,7 @@ def diff_text(left: str, right: str, comparison: Comparison, inputs: Sequence[st
     parts = [f"{left} and {right} differ: {comparison.detail}"]
     if comparison.regions:
         parts += ["", "where they differ (states both reach, and the inputs on which they do different things):"]
-        parts.append(regions_text(comparison.regions, left, right))
+        parts.append(regions_text(comparison.regions, left, right, inputs))
     if comparison.counterexample is not None and comparison.counterexample.steps:
         parts += ["", "shortest distinguishing sequence:", trace_text(comparison.counterexample, inputs)]
     return "\n".join(parts)

@@ -30,6 +30,7 @@ class Region:
     cube: dict[str, bool]
     left: tuple[Outcome, ...]
     right: tuple[Outcome, ...]
+    witness: tuple[dict[str, bool], ...] = ()  # inputs from the initial state: the path, then the differing step
 
 
 @dataclass
@@ -133,6 +134,7 @@ class Comparator:
         result: list[Region] = []
         blocked: list[z3.BoolRef] = []
         names = self.solver.names
+        path = [self.solver.witness(self.both(src, dst)) or {} for src, dst in self.path_to(state)]
         while len(result) < MAX_CUBES:
             inputs = self.solver.witness(z3.And(self.differs(state), *[z3.Not(b) for b in blocked]))
             if inputs is None:
@@ -145,7 +147,7 @@ class Comparator:
                     cube = trial
             blocked.append(self.literals(cube))
             left, right = self.outcomes(state, inputs)
-            result.append(Region(state, cube, left, right))
+            result.append(Region(state, cube, left, right, (*path, inputs)))
         return result
 
     def literals(self, cube: dict[str, bool]) -> z3.BoolRef:

@@ -1,0 +1,117 @@
+"""Check results in the formats CI systems read: JUnit XML (one test case per property) and SARIF 2.1.0 (each
+finding located at the line of the spec element it is about, so that review tools annotate the spec)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+from xml.etree import ElementTree as ET
+
+from mlca_verify import __version__
+from mlca_verify.errors import Loc
+from mlca_verify.logic.results import Result
+from mlca_verify.model import Machine
+from mlca_verify.report import trace_text
+
+SARIF_SCHEMA = "https://json.schemastore.org/sarif-2.1.0.json"
+RULES = {
+    "determinism": "Two transitions with different targets are enabled at once.",
+    "completeness": "Some input enables no transition (a gap).",
+    "reachability": "A state is never reached.",
+    "dead-transition": "A transition never fires.",
+    "invariant": "A declared invariant fails after some step.",
+    "liveness": "A declared response property fails on some run.",
+    "equivalence": "Two machines behave differently on some input sequence.",
+}
+
+Checked = tuple[str, Machine, Sequence[Result]]  # spec path, machine, results
+
+
+def element_loc(machine: Machine, prop: str) -> Loc:
+    """Where in the spec the element a property is about stands."""
+    kind, _, name = prop.partition(":")
+    if kind == "fires":
+        return next(t.loc for t in machine.transitions if t.id == name)
+    if kind == "equiv":
+        return next(c.loc for c in machine.comparisons if c.other.name == name)
+    declared = {i.id: i.loc for i in machine.invariants} | {p.id: p.loc for p in machine.liveness}
+    return declared.get(prop, machine.loc)
+
+
+def _message(r: Result) -> str:
+    text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}"
+    return f"{text}. {r.detail}" if r.detail else text
+
+
+def junit_xml(checked: Sequence[Checked]) -> str:
+    """One <testsuite> per spec, one <testcase> per property; a verdict other than expected is a <failure>."""
+    root = ET.Element("testsuites", name="mlca-verify check")
+    total = failures = 0
+    for path, machine, results in checked:
+        bad = [r for r in results if not r.ok]
+        suite = ET.SubElement(
+            root, "testsuite", name=path, tests=str(len(results)), failures=str(len(bad)), errors="0", skipped="0"
+        )
+        suite.set("time", f"{sum(r.seconds for r in results):.3f}")
+        for r in results:
+            loc = element_loc(machine, r.prop)
+            case = ET.SubElement(
+                suite, "testcase", classname=f"mlca-verify.{machine.name}", name=r.prop, time=f"{r.seconds:.3f}"
+            )
+            case.set("file", path)
+            case.set("line", str(loc.line))
+            body = f"cite: {r.cite}\n{_message(r)}"
+            if r.counterexample is not None and r.counterexample.steps:
+                body += "\n" + trace_text(r.counterexample, machine.input_names)
+            if not r.ok:
+                failure = ET.SubElement(case, "failure", message=_message(r), type=r.kind)
+                failure.text = body
+            else:
+                ET.SubElement(case, "system-out").text = body
+        total += len(results)
+        failures += len(bad)
+    root.set("tests", str(total))
+    root.set("failures", str(failures))
+    root.set("errors", "0")
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def sarif(checked: Sequence[Checked]) -> dict[str, Any]:
+    """A SARIF 2.1.0 log: a result for every violated or unknown verdict. A violation the spec expects is
+    reported with an in-source suppression (its `expect`), so tools show it as accepted, not new."""
+    results: list[dict[str, Any]] = []
+    for path, machine, checked_results in checked:
+        for r in checked_results:
+            if r.verdict == "holds":
+                continue
+            loc = element_loc(machine, r.prop)
+            entry: dict[str, Any] = {
+                "ruleId": r.kind,
+                "level": "error" if not r.ok else "note",
+                "message": {"text": _message(r)},
+                "locations": [
+                    {
+                        "physicalLocation": {
+                            "artifactLocation": {"uri": path},
+                            "region": {"startLine": loc.line, "startColumn": loc.col},
+                        },
+                        "logicalLocations": [{"name": r.prop, "fullyQualifiedName": f"{machine.name}.{r.prop}"}],
+                    }
+                ],
+                "properties": {"verdict": r.verdict, "expected": r.expected, "cite": r.cite},
+            }
+            if r.ok:
+                entry["suppressions"] = [{"kind": "inSource", "justification": f'expect = "{r.expected}" in the spec'}]
+            results.append(entry)
+    rules = [{"id": kind, "shortDescription": {"text": text}} for kind, text in RULES.items()]
+    return {
+        "$schema": SARIF_SCHEMA,
+        "version": "2.1.0",
+        "runs": [
+            {
+                "tool": {"driver": {"name": "mlca-verify", "version": __version__, "rules": rules}},
+                "results": results,
+            }
+        ],
+    }
