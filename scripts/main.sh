@@ -3,7 +3,8 @@
 #   1. prove every property of the canonical machine, the repair and the paper's other two readings;
 #   2. generate the Python and C99 code of the two deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
-#      the Cortex-M4 cross build, sanitizers).
+#      the Cortex-M4 cross build, sanitizers);
+#   4. package it all as safety-case evidence for the repaired controller (out/evidence/index.html).
 # Reports go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,4 +13,5 @@ mkdir -p out
 .venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/paper/*.toml --json out/check.json
 .venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml
 .venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml --json out/conform.json
-echo "main: reports written to out/check.json and out/conform.json"
+.venv/bin/mlca-verify evidence spec/mlca_r.toml --out out/evidence
+echo "main: reports written to out/check.json, out/conform.json and out/evidence/ (open out/evidence/index.html)"

@@ -21,6 +21,8 @@ from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import MlcaError, ToolError, UsageError
+from mlca_verify.evidence import collect, write_bundle
+from mlca_verify.evidence import now as evidence_now
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
@@ -78,6 +80,18 @@ def _parser() -> argparse.ArgumentParser:
     diagram.add_argument("spec", metavar="SPEC", help="spec file")
     diagram.add_argument("--format", choices=[*FORMATS, "svg"], default="dot", help="output format (default dot)")
     diagram.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
+
+    evidence = sub.add_parser("evidence", help="write a self-contained safety-case bundle (evidence.json, index.html)")
+    evidence.add_argument("spec", metavar="SPEC", help="the spec of the generated controller")
+    evidence.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    evidence.add_argument("--db", metavar="RESULTS", help="closed-loop results database (SQLite) to include")
+    evidence.add_argument(
+        "--generated", default="generated", metavar="DIR", help="where the code is (default: generated)"
+    )
+    evidence.add_argument(
+        "--readings", nargs="*", metavar="SPEC", default=None,
+        help="the paper's readings to show side by side, canonical first (default: spec/mlca.toml spec/paper/*.toml)",
+    )  # fmt: skip
     return parser
 
 
@@ -224,6 +238,27 @@ def cmd_diagram(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_evidence(args: argparse.Namespace) -> int:
+    readings = args.readings
+    if readings is None:
+        readings = [
+            p
+            for p in ["spec/mlca.toml", *sorted(str(p) for p in Path("spec/paper").glob("*.toml"))]
+            if Path(p).is_file()
+        ]
+    db = Path(args.db) if args.db else None
+    if db is not None and not db.is_file():
+        raise UsageError(f"{db}: error: results database not found")
+    print(
+        f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True
+    )
+    ev = collect(args.spec, readings, Path(args.generated), db, evidence_now())
+    for path in write_bundle(ev, Path(args.out)):
+        print(f"wrote {path}")
+    print("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")
+    return EXIT_OK if ev.ok else EXIT_FINDING
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; return the exit code. User mistakes print one line on stderr and return 2."""
     try:
@@ -234,6 +269,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "gen": cmd_gen,
             "conform": cmd_conform,
             "diagram": cmd_diagram,
+            "evidence": cmd_evidence,
         }
         command = commands[args.command]
         return command(args)

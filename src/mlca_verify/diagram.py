@@ -38,7 +38,8 @@ def caption(m: Machine) -> str:
     return f"{m.name} ({m.cite}): {order}; {rest}"
 
 
-def to_dot(m: Machine) -> str:
+def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> str:
+    """DOT text; edges in `highlight` ((source state, transition id) pairs) are drawn red and bold."""
     lines = [
         f"digraph {m.name} {{",
         "  rankdir=LR;",
@@ -50,7 +51,8 @@ def to_dot(m: Machine) -> str:
     lines += [f"  {s};" for s in m.states]
     for state, priority, t in _edges(m):
         label = _dot_str(f"{_label(m, priority, t)}\n[{t.id}]")
-        lines.append(f"  {state} -> {t.target} [label={label}, tooltip={_dot_str(t.cite)}];")
+        mark = ", color=red, fontcolor=red, penwidth=2" if (state, t.id) in highlight else ""
+        lines.append(f"  {state} -> {t.target} [label={label}, tooltip={_dot_str(t.cite)}{mark}];")
     lines.append("}")
     return "\n".join(lines) + "\n"
 

@@ -165,6 +165,7 @@ def sequences(t: Target) -> Outcome:
 
 _WP_SUMMARY = re.compile(r"Proved goals:\s+(\d+)\s*/\s*(\d+)")
 _WP_BAD = re.compile(r"\[wp\] \[[^\]]+\] Goal (\S+) : (Timeout|Unknown|Failed|Stepout)")
+_WP_GOAL = re.compile(r"^\[wp\] \[([^\]]+)\] Goal (\S+) : (\w+)", re.MULTILINE)
 
 
 def frama_c(t: Target) -> Outcome:
@@ -181,7 +182,9 @@ def frama_c(t: Target) -> Outcome:
         return Outcome("frama-c-wp", False, f"Frama-C did not report a proof:\n{tail}")
     proved, total = int(summary.group(1)), int(summary.group(2))
     unproved = [f"{g} ({why})" for g, why in _WP_BAD.findall(ran.output)]
-    data = {"proved": proved, "goals": total, "unproved": unproved}
+    listed = sorted({(goal, prover, status) for prover, goal, status in _WP_GOAL.findall(ran.output)})
+    goal_list = [{"goal": g, "prover": p, "status": s} for g, p, s in listed]
+    data = {"proved": proved, "goals": total, "unproved": unproved, "goal_list": goal_list}
     if proved != total or ran.returncode != 0:
         return Outcome(
             "frama-c-wp", False, f"{proved} / {total} goals proved; not proved: {', '.join(unproved) or '?'}", data=data

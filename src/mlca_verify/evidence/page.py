@@ -1,0 +1,47 @@
+"""The evidence page: one self-contained HTML file (inline CSS and SVG, no script, nothing fetched)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import jinja2
+
+from mlca_verify.conform.tools import run
+from mlca_verify.errors import ToolError
+
+TEMPLATE = Path(__file__).with_name("page.html.j2")
+
+
+def inline_svg(dot_text: str) -> str | None:
+    """SVG for inlining (no XML prolog, no DOCTYPE), or None when Graphviz is not installed."""
+    try:
+        ran = run(["dot", "-Tsvg"], timeout=60, stdin=dot_text)
+    except ToolError:
+        return None
+    if ran.returncode != 0:
+        return None
+    svg = ran.output[ran.output.index("<svg") :]
+    return re.sub(r"<!--.*?-->\n?", "", svg, flags=re.DOTALL)
+
+
+def anchor(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_-]", "-", text)
+
+
+def render_page(data: dict[str, Any]) -> str:
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATE.parent)),
+        autoescape=True,
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+    )
+    env.filters.update(anchor=anchor)
+    svgs = {m["machine"]: inline_svg(m["dot"]) for m in data["readings"]["machines"]}
+    children: dict[str | None, list[dict[str, Any]]] = {}
+    for node in data["argument"]:
+        children.setdefault(node["parent"], []).append(node)
+    return env.get_template(TEMPLATE.name).render(d=data, svgs=svgs, children=children)

@@ -1,0 +1,116 @@
+"""The evidence bundle: its schema, byte-for-byte reproducibility, the page in a real browser, the database."""
+
+from __future__ import annotations
+
+import difflib
+import json
+import sqlite3
+from pathlib import Path
+
+import jsonschema
+import pytest
+from playwright.sync_api import sync_playwright
+
+from mlca_verify.cli import main
+
+ROOT = Path(__file__).parent.parent
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+                 "--disable-sync", "--no-first-run", "--disable-quic"]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The same evidence built twice, at two different times."""
+    out = tmp_path_factory.mktemp("evidence")
+    mp = pytest.MonkeyPatch()
+    mp.chdir(ROOT)
+    for name, epoch in (("a", "1764000000"), ("b", "1764003600")):
+        mp.setenv("SOURCE_DATE_EPOCH", epoch)
+        assert main(["evidence", "spec/mlca_r.toml", "--out", str(out / name)]) == 0
+    mp.undo()
+    return out / "a", out / "b"
+
+
+@pytest.mark.slow
+def test_evidence_json_matches_its_schema(bundles: tuple[Path, Path]) -> None:
+    doc = json.loads((bundles[0] / "evidence.json").read_text())
+    schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
+    jsonschema.validate(doc, schema, format_checker=jsonschema.FormatChecker())
+    assert doc["ok"] is True and doc["generated_at"] == "2025-11-24T16:00:00+00:00"
+    wp = next(c for c in doc["conformance"] if c["name"] == "frama-c-wp")
+    assert len(wp["data"]["goal_list"]) == wp["data"]["goals"] == wp["data"]["proved"]
+    paths = {f["path"] for f in doc["inputs"]}
+    assert {"spec/mlca_r.toml", "spec/mlca.toml", "spec/paper/figure.toml", "codegen/c_fsm.c.j2"} <= paths
+    rows = {r["element"]: r for r in doc["traceability"]}
+    wait_left = rows["transition wait_left"]
+    assert wait_left["cite"].startswith("repair of Alg. 1, l.16-18") and wait_left["verdict"] == "holds"
+    for ref in wait_left["code"]:
+        line = (ROOT / ref["file"]).read_text().splitlines()[ref["line"] - 1]
+        assert "wait_left: " in line
+    assert {m["machine"] for m in doc["readings"]["machines"]} == {"MLCA", "MLCA_figure", "MLCA_prose"}
+
+
+@pytest.mark.slow
+def test_two_runs_differ_only_in_the_timestamp(bundles: tuple[Path, Path]) -> None:
+    for name in ("evidence.json", "index.html"):
+        a = (bundles[0] / name).read_text().splitlines()
+        b = (bundles[1] / name).read_text().splitlines()
+        changed = [
+            line
+            for line in difflib.unified_diff(a, b, lineterm="", n=0)
+            if line[:1] in "+-" and line[:3] not in ("+++", "---")
+        ]
+        assert len(changed) == 2, changed
+        assert all("2025-11-24T1" in line for line in changed)
+
+
+@pytest.mark.slow
+def test_page_loads_in_chromium_without_errors_and_every_link_resolves(bundles: tuple[Path, Path]) -> None:
+    page_url = (bundles[0] / "index.html").as_uri()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+        page = browser.new_page()
+        problems: list[str] = []
+        requests: list[str] = []
+        page.on("console", lambda m: problems.append(m.text) if m.type in ("error", "warning") else None)
+        page.on("pageerror", lambda e: problems.append(str(e)))
+        page.on("request", lambda r: requests.append(r.url))
+        page.goto(page_url)
+        hrefs = page.evaluate("[...document.querySelectorAll('a[href]')].map(a => a.getAttribute('href'))")
+        missing = page.evaluate(
+            "[...document.querySelectorAll('a[href^=\"#\"]')].map(a => a.getAttribute('href'))"
+            ".filter(h => !document.getElementById(h.slice(1)))"
+        )
+        svgs = page.evaluate("document.querySelectorAll('.reading svg').length")
+        solutions = page.evaluate("document.querySelectorAll('.node.solution a').length")
+        browser.close()
+    assert problems == []
+    assert requests == [page_url], "the page must load nothing else"
+    assert hrefs and all(h.startswith("#") for h in hrefs)
+    assert missing == []
+    assert svgs == 3
+    doc = json.loads((bundles[0] / "evidence.json").read_text())
+    assert solutions == sum(1 for n in doc["argument"] if n["type"] == "solution") > 30
+
+
+@pytest.mark.slow
+def test_results_database_develops_the_closed_loop_goal(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(ROOT)
+    db = tmp_path / "results.sqlite"
+    with sqlite3.connect(db) as conn:
+        conn.execute("CREATE TABLE runs (id INTEGER PRIMARY KEY, monitor_violations INTEGER)")
+        conn.executemany("INSERT INTO runs (monitor_violations) VALUES (?)", [(0,), (0,), (1,)])
+    out = tmp_path / "evidence"
+    assert main(["evidence", "spec/mlca.toml", "--db", str(db), "--out", str(out)]) == 1
+    doc = json.loads((out / "evidence.json").read_text())
+    assert doc["closed_loop"]["runs"] == 3 and doc["closed_loop"]["monitor_violations"] == 1
+    g6 = next(n for n in doc["argument"] if n["id"] == "G6")
+    assert g6["type"] == "goal" and g6["ok"] is False and doc["ok"] is False
+
+
+def test_bad_database_is_a_usage_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(ROOT)
+    assert main(["evidence", "spec/mlca.toml", "--db", str(tmp_path / "none.sqlite"), "--out", str(tmp_path)]) == 2
+    assert "results database not found" in capsys.readouterr().err
