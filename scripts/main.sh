@@ -4,7 +4,9 @@
 #   2. generate the Python and C99 code of the two deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
 #      the Cortex-M4 cross build, sanitizers);
-#   4. package it all as safety-case evidence for the repaired controller (out/evidence/index.html).
+#   4. run both generated C controllers closed loop in SUMO on a short version of the paper's scenario, one and
+#      three AVs, two seeds each (out/sim.sqlite; runs already there are kept);
+#   5. package it all as safety-case evidence for the repaired controller (out/evidence/index.html).
 # Reports go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,5 +15,7 @@ mkdir -p out
 .venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/paper/*.toml --json out/check.json
 .venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml
 .venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml --json out/conform.json
-.venv/bin/mlca-verify evidence spec/mlca_r.toml --out out/evidence
-echo "main: reports written to out/check.json, out/conform.json and out/evidence/ (open out/evidence/index.html)"
+.venv/bin/mlca-sim sweep --controller mlca-c,mlca_r-c --avs 1,3 --runs 2 --jobs 2 \
+    --scenario sim_check/scenarios/short.toml --db out/sim.sqlite --resume
+.venv/bin/mlca-verify evidence spec/mlca_r.toml --db out/sim.sqlite --out out/evidence
+echo "main: reports in out/check.json, out/conform.json, out/sim.sqlite and out/evidence/ (open out/evidence/index.html)"

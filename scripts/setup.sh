@@ -9,9 +9,9 @@ PYTHON=${PYTHON:-python3}
 # Debian packages the toolchain relies on (python3-venv only where the interpreter lacks venv/ensurepip):
 # a C compiler with sanitizers, Frama-C with WP, Why3 and z3 (the prover WP calls), cppcheck (with its MISRA
 # addon), the Cortex-M cross compiler with its C library, valgrind for the benchmarks, Graphviz for SVG
-# diagrams, Chromium for the evidence page's browser test.
+# diagrams, Chromium for the evidence page's browser test, and the X11 and GL libraries libsumo and SUMO load.
 SYSTEM_PACKAGES=(gcc libc6-dev frama-c-base why3 z3 cppcheck gcc-arm-none-eabi libnewlib-arm-none-eabi valgrind
-                 graphviz chromium)
+                 graphviz chromium libx11-6 libxext6 libxrender1 libgl1)
 
 apt_install() {
     local sudo=""

@@ -4,8 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-.venv/bin/ruff check src tests bench scripts
-.venv/bin/ruff format --check src tests bench scripts
+.venv/bin/ruff check src sim_check tests bench scripts
+.venv/bin/ruff format --check src sim_check tests bench scripts
 .venv/bin/mypy
 .venv/bin/mlca-verify gen --check
 .venv/bin/pytest -n 2 "$@"

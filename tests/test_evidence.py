@@ -98,8 +98,14 @@ def test_results_database_develops_the_closed_loop_goal(tmp_path: Path, monkeypa
     monkeypatch.chdir(ROOT)
     db = tmp_path / "results.sqlite"
     with sqlite3.connect(db) as conn:
-        conn.execute("CREATE TABLE runs (id INTEGER PRIMARY KEY, monitor_violations INTEGER)")
-        conn.executemany("INSERT INTO runs (monitor_violations) VALUES (?)", [(0,), (0,), (1,)])
+        conn.execute("CREATE TABLE runs (controller TEXT, seed INTEGER, status TEXT, monitor_violations INTEGER)")
+        rows = [
+            ("mlca-c", 0, "done", 0),
+            ("mlca-py", 1, "done", 0),
+            ("mlca-c", 2, "done", 1),
+            ("mlca_r-c", 0, "done", 5),
+        ]
+        conn.executemany("INSERT INTO runs VALUES (?, ?, ?, ?)", rows)
     out = tmp_path / "evidence"
     assert main(["evidence", "spec/mlca.toml", "--db", str(db), "--out", str(out)]) == 1
     doc = json.loads((out / "evidence.json").read_text())

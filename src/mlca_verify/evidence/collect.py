@@ -73,7 +73,7 @@ class Evidence:
 
     @property
     def ok(self) -> bool:
-        loop_ok = closed_loop(self.db)["status"] != "failed"
+        loop_ok = closed_loop(self.db, self.spec.machine.name.lower())["status"] != "failed"
         return all(r.ok for r in self.results) and all(o.ok for o in self.outcomes) and loop_ok
 
 
@@ -106,7 +106,7 @@ def document(ev: Evidence) -> dict[str, Any]:
         "artifacts": artifacts(ev),
         "proofs": [proof(r) for r in ev.results],
         "conformance": [{"name": o.name, "ok": o.ok, "detail": o.detail, "data": o.data} for o in ev.outcomes],
-        "closed_loop": closed_loop(ev.db),
+        "closed_loop": closed_loop(ev.db, ev.spec.machine.name.lower()),
         "traceability": traceability(ev),
         "readings": readings(ev),
         "argument": argument(ev),
@@ -144,22 +144,31 @@ def artifacts(ev: Evidence) -> list[dict[str, str]]:
     return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generated_files(ev).items()]
 
 
-def closed_loop(db: Path | None) -> dict[str, Any]:
-    """Monitor results of closed-loop runs from a results database (runs table with a monitor_violations column)."""
+def closed_loop(db: Path | None, module: str) -> dict[str, Any]:
+    """Monitor results of this machine's closed-loop runs (controllers `<module>-py` and `<module>-c`) from a
+    results database written by `mlca-sim`."""
     if db is None:
         return {"status": "undeveloped", "detail": "no results database given (--db)"}
+    query = (
+        "SELECT COUNT(*), COALESCE(SUM(monitor_violations), 0), COALESCE(SUM(status != 'done'), 0) FROM runs "
+        "WHERE controller IN (?, ?)"
+    )
     try:
         with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
-            runs, violations = conn.execute(
-                "SELECT COUNT(*), COALESCE(SUM(monitor_violations), 0) FROM runs"
-            ).fetchone()
+            runs, violations, failed = conn.execute(query, (f"{module}-py", f"{module}-c")).fetchone()
     except sqlite3.Error as err:
-        raise UsageError(
-            f"{db}: error: not a results database with a runs table and a monitor_violations column ({err})"
-        ) from None
-    status = "ok" if runs and violations == 0 else "failed"
-    return {"status": status, "db": db.as_posix(), "sha256": sha256(db), "runs": runs, "monitor_violations": violations,
-            "detail": f"{runs} closed-loop runs, {violations} monitor violations"}  # fmt: skip
+        raise UsageError(f"{db}: error: not a results database written by mlca-sim ({err})") from None
+    status = "ok" if runs and violations == 0 and failed == 0 else "failed"
+    detail = f"{runs} closed-loop runs of {module}, {failed} failed, {violations} monitor violations"
+    return {
+        "status": status,
+        "db": db.as_posix(),
+        "sha256": sha256(db),
+        "runs": runs,
+        "failed_runs": failed,
+        "monitor_violations": violations,
+        "detail": detail,
+    }
 
 
 # --- traceability -----------------------------------------------------------------------------------------
@@ -287,7 +296,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     )
     node("Sn5.1", "solution", by_name["exhaustive"].detail, "G5", by_name["exhaustive"].ok, link="#check-exhaustive")
     node("Sn5.2", "solution", by_name["sequences"].detail, "G5", by_name["sequences"].ok, link="#check-sequences")
-    loop = closed_loop(ev.db)
+    loop = closed_loop(ev.db, m.name.lower())
     if loop["status"] == "undeveloped":
         node(
             "G6",

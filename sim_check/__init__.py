@@ -1,0 +1,1 @@
+"""Closed-loop simulation: the generated MLCA controllers driving autonomous vehicles in SUMO through libsumo."""

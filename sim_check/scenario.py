@@ -1,0 +1,181 @@
+"""The scenario: a scenario file (TOML, defaults from the paper) turned into a SUMO network and seeded traffic.
+
+The network is plain XML (nodes, edges, connections) built by SUMO's netconvert: an approach of the highway, an
+on-ramp joining it as an acceleration lane (lane 0 of the `acc` edge, which ends), and the highway. The traffic
+is drawn from the seed by this module, written into the route file with every vehicle's departure, lane and
+speed factor, so that runs with one and with three AVs share the same background traffic.
+"""
+
+from __future__ import annotations
+
+import random
+import subprocess
+import tomllib
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+from mlca_verify.errors import Loc, SpecError, ToolError
+from mlca_verify.spec.locate import Locator
+
+PAPER = Path(__file__).with_name("paper.toml")
+
+
+@dataclass(frozen=True)
+class Road:
+    lanes: int = 5
+    length_m: float = 20500
+    highway_speed_kmh: float = 80
+    ramp_speed_kmh: float = 45
+    ramp_length_m: float = 300
+    merge_length_m: float = 250
+    approach_m: float = 500
+
+
+@dataclass(frozen=True)
+class Traffic:
+    cars: int = 100
+    avs: int = 1
+    depart_window_s: float = 300
+    av_depart_s: float = 30
+    step_s: float = 0.1
+    target_lane: str = "middle"
+
+
+@dataclass(frozen=True)
+class Scenario:
+    road: Road = Road()
+    traffic: Traffic = Traffic()
+
+    def with_avs(self, avs: int) -> Scenario:
+        return replace(self, traffic=replace(self.traffic, avs=avs))
+
+    @property
+    def target_lane(self) -> int:
+        """Highway lane index (0 = rightmost) the AVs settle in."""
+        return self.road.lanes // 2 if self.traffic.target_lane == "middle" else int(self.traffic.target_lane)
+
+
+def load_scenario(path: Path | None = None) -> Scenario:
+    """Read a scenario file; every key is optional and defaults to the paper's value. Errors name file:line:col."""
+    path = path or PAPER
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise SpecError(Loc(str(path), 1, 1), f"cannot read scenario: {err.strerror or err}") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SpecError(Loc(str(path), 1, 1), f"invalid TOML: {err}") from None
+    where = Locator(str(path), text)
+    sections: dict[str, Any] = {"road": Road(), "traffic": Traffic()}
+    for key, table in doc.items():
+        if key not in sections:
+            raise SpecError(where.loc((key,)), f"unknown section [{key}] (known: road, traffic)")
+        sections[key] = _section(sections[key], table, where, key)
+    return Scenario(**sections)
+
+
+def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> Any:
+    known = {f.name: f for f in fields(default)}
+    values = {}
+    for key, given in table.items():
+        value = given
+        if key not in known:
+            raise SpecError(where.loc((name, key)), f"unknown key '{key}' in [{name}] (known: {', '.join(known)})")
+        wanted = type(getattr(default, key))
+        if wanted is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, wanted) or isinstance(value, bool):
+            raise SpecError(where.loc((name, key)), f"'{key}' in [{name}] must be {wanted.__name__}, got {value!r}")
+        if isinstance(value, int | float) and value <= 0:
+            raise SpecError(where.loc((name, key)), f"'{key}' in [{name}] must be positive, got {value!r}")
+        values[key] = value
+    return replace(default, **values)
+
+
+@dataclass(frozen=True)
+class Built:
+    net: Path
+    routes: Path
+    av_ids: tuple[str, ...]
+
+
+def sumo_bin(tool: str) -> str:
+    import sumo
+
+    return str(Path(sumo.SUMO_HOME) / "bin" / tool)
+
+
+def build(scenario: Scenario, seed: int, work: Path) -> Built:
+    """Write the network (by netconvert) and the seeded routes for one run into `work`."""
+    work.mkdir(parents=True, exist_ok=True)
+    net = work / "highway.net.xml"
+    if not net.exists():
+        _write_plain(scenario.road, work)
+        done = subprocess.run(
+            [sumo_bin("netconvert"), "--node-files", str(work / "highway.nod.xml"), "--edge-files",
+             str(work / "highway.edg.xml"), "--connection-files", str(work / "highway.con.xml"),
+             "--no-turnarounds", "true", "--no-warnings", "true", "-o", str(net)],
+            capture_output=True, text=True, check=False,
+        )  # fmt: skip
+        if done.returncode != 0:
+            raise ToolError(f"error: netconvert failed: {done.stderr.strip()}")
+    routes = work / f"seed{seed}_avs{scenario.traffic.avs}.rou.xml"
+    av_ids = _write_routes(scenario, seed, routes)
+    return Built(net, routes, av_ids)
+
+
+def _write_plain(road: Road, work: Path) -> None:
+    a, m = road.approach_m, road.merge_length_m
+    end = a + m + road.length_m
+    hw, ramp = road.highway_speed_kmh / 3.6, road.ramp_speed_kmh / 3.6
+    (work / "highway.nod.xml").write_text(
+        "<nodes>\n"
+        f'  <node id="hw_start" x="0" y="0"/>\n  <node id="merge_start" x="{a}" y="0"/>\n'
+        f'  <node id="merge_end" x="{a + m}" y="0"/>\n  <node id="hw_end" x="{end}" y="0"/>\n'
+        f'  <node id="ramp_start" x="{a - road.ramp_length_m}" y="-150"/>\n'
+        "</nodes>\n"
+    )
+    (work / "highway.edg.xml").write_text(
+        "<edges>\n"
+        f'  <edge id="hw_in" from="hw_start" to="merge_start" numLanes="{road.lanes}" speed="{hw:.3f}"/>\n'
+        f'  <edge id="ramp" from="ramp_start" to="merge_start" numLanes="1" speed="{ramp:.3f}"/>\n'
+        f'  <edge id="acc" from="merge_start" to="merge_end" numLanes="{road.lanes + 1}" speed="{hw:.3f}"/>\n'
+        f'  <edge id="hw" from="merge_end" to="hw_end" numLanes="{road.lanes}" speed="{hw:.3f}"/>\n'
+        "</edges>\n"
+    )
+    connections = ['  <connection from="ramp" to="acc" fromLane="0" toLane="0"/>']
+    for lane in range(road.lanes):
+        connections.append(f'  <connection from="hw_in" to="acc" fromLane="{lane}" toLane="{lane + 1}"/>')
+        connections.append(f'  <connection from="acc" to="hw" fromLane="{lane + 1}" toLane="{lane}"/>')
+    (work / "highway.con.xml").write_text("<connections>\n" + "\n".join(connections) + "\n</connections>\n")
+
+
+def _write_routes(scenario: Scenario, seed: int, path: Path) -> tuple[str, ...]:
+    rng = random.Random(seed)
+    t = scenario.traffic
+    cars = []
+    for k in range(t.cars):
+        depart = rng.uniform(0, t.depart_window_s)
+        on_ramp = rng.random() < 0.1
+        lane = 0 if on_ramp else rng.randrange(scenario.road.lanes)
+        factor = max(0.7, min(1.3, rng.gauss(1.0, 0.1)))
+        cars.append((depart, f"car{k}", "ramp_route" if on_ramp else "main_route", lane, factor))
+    avs = [(t.av_depart_s + 10.0 * k, f"av{k}", "ramp_route", 0, 1.0) for k in range(t.avs)]
+    lines = [
+        "<routes>",
+        '  <vType id="car" vClass="passenger" speedDev="0.1"/>',
+        '  <vType id="av" vClass="passenger" speedDev="0" color="0,200,0"/>',
+        '  <route id="main_route" edges="hw_in acc hw"/>',
+        '  <route id="ramp_route" edges="ramp acc hw"/>',
+    ]
+    for depart, vid, route, lane, factor in sorted(cars + avs):
+        vtype = "av" if vid.startswith("av") else "car"
+        lines.append(
+            f'  <vehicle id="{vid}" type="{vtype}" route="{route}" depart="{depart:.1f}" departLane="{lane}" '
+            f'departSpeed="desired" speedFactor="{factor:.3f}"/>'
+        )
+    lines.append("</routes>")
+    path.write_text("\n".join(lines) + "\n")
+    return tuple(vid for _, vid, *_ in avs)

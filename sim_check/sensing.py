@@ -1,0 +1,93 @@
+"""Sensing: N, W, L and R for one AV from libsumo, with the thresholds the docs state.
+
+- N, a lane change is wanted: the AV is not in its wanted lane. On the acceleration lane (the merge) the wanted
+  lane is the highway's target lane (the middle one, Sec. III); on the highway it is the target lane. N drops as
+  soon as the AV is in the wanted lane (finding F8: nothing else ends a lane change).
+- W, the AV can afford to wait: its current lane continues for more than `URGENT_M` metres (the acceleration
+  lane ends; the highway lanes do not).
+- L, R: the gap on that side is safe, and moving to that side brings the AV closer to its wanted lane. Safe:
+  the leader in that lane is at least `TIME_GAP_S` ahead in time gap (and `MIN_GAP_M`), the follower at least
+  `TIME_GAP_S` behind at its own speed, and the follower would not need to brake harder than `FOLLOWER_DECEL`
+  to keep from closing the gap; and no other AV has claimed that lane near the same position this step (V2V).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+URGENT_M = 100.0
+TIME_GAP_S = 1.0
+MIN_GAP_M = 3.0
+FOLLOWER_DECEL = 4.0
+CLAIM_RADIUS_M = 30.0
+
+LEFT_LEADERS, LEFT_FOLLOWERS, RIGHT_LEADERS, RIGHT_FOLLOWERS = 3, 1, 2, 0
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A V2V message: an AV intends to move into `lane` of `edge` around position `pos`."""
+
+    av: str
+    edge: str
+    lane: int
+    pos: float
+
+
+@dataclass(frozen=True)
+class Sensed:
+    inputs: dict[str, bool]
+    direction: int  # +1 towards the left, -1 towards the right, 0 none needed
+    lane: int
+    edge: str
+
+
+def wanted_lane(edge: str, target: int) -> int | None:
+    if edge == "acc":
+        return target + 1  # lane i+1 of the acceleration edge continues as lane i of the highway
+    if edge in ("hw", "hw_in"):
+        return target
+    return None
+
+
+def _gap_ok(sumo: Any, av: str, mode_leader: int, mode_follower: int) -> bool:
+    v = sumo.vehicle.getSpeed(av)
+    for _vid, gap in sumo.vehicle.getNeighbors(av, mode_leader):
+        if gap < max(MIN_GAP_M, v * TIME_GAP_S):
+            return False
+    for vid, gap in sumo.vehicle.getNeighbors(av, mode_follower):
+        vf = sumo.vehicle.getSpeed(vid)
+        if gap < max(MIN_GAP_M, vf * TIME_GAP_S):
+            return False
+        if vf > v and (vf - v) ** 2 / (2 * max(gap, 0.1)) > FOLLOWER_DECEL:
+            return False
+    return True
+
+
+def _claimed(claims: list[Claim], av: str, edge: str, lane: int, pos: float) -> bool:
+    return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
+
+
+def sense(sumo: Any, av: str, target: int, claims: list[Claim]) -> Sensed | None:
+    """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction)."""
+    edge = sumo.vehicle.getRoadID(av)
+    wanted = wanted_lane(edge, target)
+    if wanted is None:
+        return None
+    lane = sumo.vehicle.getLaneIndex(av)
+    direction = (wanted > lane) - (wanted < lane)
+    lanes = sumo.edge.getLaneNumber(edge)
+    lane_id = sumo.vehicle.getLaneID(av)
+    remaining = sumo.lane.getLength(lane_id) - sumo.vehicle.getLanePosition(av)
+    ends = edge == "acc" and lane == 0
+    pos = sumo.vehicle.getLanePosition(av)
+    left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)
+    right = direction < 0 and lane > 0 and not _claimed(claims, av, edge, lane - 1, pos)
+    inputs = {
+        "N": direction != 0,
+        "W": not (ends and remaining < URGENT_M),
+        "L": left and _gap_ok(sumo, av, LEFT_LEADERS, LEFT_FOLLOWERS),
+        "R": right and _gap_ok(sumo, av, RIGHT_LEADERS, RIGHT_FOLLOWERS),
+    }
+    return Sensed(inputs, direction, lane, edge)

@@ -1,0 +1,113 @@
+"""Sweeps: many runs over worker processes, each with its own libsumo, results committed as each run ends.
+
+A worker that crashes (SUMO aborts the process) or hangs past the timeout is killed and replaced; its run is
+recorded as failed with the reason, and the sweep goes on."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import queue
+import sys
+import tempfile
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sim_check import db
+from sim_check.runner import RunResult, run_once
+from sim_check.scenario import Scenario
+
+Job = tuple[str, int, int]  # controller, AVs, seed
+
+
+def _worker(scenario: Scenario, jobs: Any, results: Any) -> None:
+    work = Path(tempfile.mkdtemp(prefix="mlca-sim-work-"))
+    while True:
+        job = jobs.get()
+        if job is None:
+            return
+        controller, avs, seed = job
+        try:
+            result = run_once(scenario.with_avs(avs), controller, seed, work)
+        except Exception as err:  # a simulator error fails this run, not the sweep
+            result = RunResult(controller, avs, seed, status="failed", reason=f"{type(err).__name__}: {err}")
+            traceback.print_exc(file=sys.stderr)
+        results.put((job, result))
+
+
+@dataclass
+class Slot:
+    process: Any
+    jobs: Any
+    job: Job | None = None
+    since: float = 0.0
+
+
+class Sweep:
+    def __init__(self, scenario: Scenario, db_path: Path, jobs_n: int, timeout_s: float) -> None:
+        self.scenario = scenario
+        self.conn = db.connect(db_path)
+        self.jobs_n = jobs_n
+        self.timeout_s = timeout_s
+        self.ctx = mp.get_context("spawn")
+        self.results = self.ctx.Queue()
+        self.finished_keys: set[Job] = set()
+
+    def start_slot(self) -> Slot:
+        jobs = self.ctx.Queue()
+        process = self.ctx.Process(target=_worker, args=(self.scenario, jobs, self.results), daemon=True)
+        process.start()
+        return Slot(process, jobs)
+
+    def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
+        pending = list(todo)
+        slots = [self.start_slot() for _ in range(min(self.jobs_n, len(pending)))]
+        finished: list[RunResult] = []
+        while pending or any(s.job for s in slots):
+            for slot in slots:
+                if slot.job is None and pending:
+                    slot.job, slot.since = pending.pop(0), time.monotonic()
+                    slot.jobs.put(slot.job)
+            self.collect(slots, finished, progress)
+            for k, slot in enumerate(slots):
+                reason = self.broken(slot)
+                if reason:
+                    controller, avs, seed = slot.job  # type: ignore[misc]
+                    self.finish(RunResult(controller, avs, seed, status="failed", reason=reason), finished, progress)
+                    slot.process.kill()
+                    slots[k] = self.start_slot()
+        for slot in slots:
+            slot.jobs.put(None)
+        for slot in slots:
+            slot.process.join(timeout=10)
+        return finished
+
+    def broken(self, slot: Slot) -> str:
+        if slot.job is None:
+            return ""
+        if not slot.process.is_alive():
+            return f"the simulator process died (exit code {slot.process.exitcode})"
+        if time.monotonic() - slot.since > self.timeout_s:
+            return f"no result within {self.timeout_s:.0f} s: the simulator hung"
+        return ""
+
+    def collect(self, slots: list[Slot], finished: list[RunResult], progress: Any) -> None:
+        try:
+            job, result = self.results.get(timeout=0.2)
+        except queue.Empty:
+            return
+        for slot in slots:
+            if slot.job == job:
+                slot.job = None
+        self.finish(result, finished, progress)
+
+    def finish(self, result: RunResult, finished: list[RunResult], progress: Any) -> None:
+        key = (result.controller, result.avs, result.seed)
+        if key in self.finished_keys:  # a late answer from a worker already given up on
+            return
+        self.finished_keys.add(key)
+        db.store(self.conn, result)
+        finished.append(result)
+        progress(result)

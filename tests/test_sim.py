@@ -1,0 +1,108 @@
+"""The closed loop in SUMO, for real: controllers, determinism, the results database, kill and resume."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from sim_check.cli import main
+from sim_check.runner import run_once
+from sim_check.scenario import load_scenario
+
+from mlca_verify.errors import SpecError
+
+ROOT = Path(__file__).parent.parent
+SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
+
+
+def rows(db: Path, table: str, skip: tuple[str, ...] = ("wall_s",)) -> list[tuple[object, ...]]:
+    with sqlite3.connect(db) as conn:
+        cursor = conn.execute(f"SELECT * FROM {table} ORDER BY 1, 2, 3, 4")
+        keep = [k for k, d in enumerate(cursor.description) if d[0] not in skip]
+        return [tuple(r[k] for k in keep) for r in cursor.fetchall()]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("machine", ["mlca", "mlca_r"])
+def test_python_and_c_controllers_drive_identically(machine: str, tmp_path: Path) -> None:
+    scenario = load_scenario(SHORT).with_avs(3)
+    py = run_once(scenario, f"{machine}-py", 4, tmp_path)
+    c = run_once(scenario, f"{machine}-c", 4, tmp_path)
+    assert py.status == c.status == "done"
+    assert py.trajectory_sha256 == c.trajectory_sha256
+    assert [m.row() for m in py.metrics] == [m.row() for m in c.metrics]
+    assert py.violations == c.violations == []
+    assert all(m.row()["arrived"] and m.row()["lc_5km"] >= 1 for m in py.metrics)  # every AV merged
+
+
+@pytest.mark.slow
+def test_same_seed_twice_gives_the_same_rows(tmp_path: Path) -> None:
+    for name in ("a", "b"):
+        argv = ["sweep", "--controller", "mlca-c", "--avs", "1,3", "--runs", "2", "--jobs", "2"]
+        assert main([*argv, "--db", str(tmp_path / f"{name}.sqlite"), "--scenario", str(SHORT)]) == 0
+    for table in ("runs", "av_metrics", "violations"):
+        assert rows(tmp_path / "a.sqlite", table) == rows(tmp_path / "b.sqlite", table)
+    assert len(rows(tmp_path / "a.sqlite", "runs")) == 4
+    assert len(rows(tmp_path / "a.sqlite", "av_metrics")) == 2 * (1 + 3)
+
+
+@pytest.mark.slow
+def test_killed_sweep_resumes_without_losing_or_repeating_a_run(tmp_path: Path) -> None:
+    db = tmp_path / "r.sqlite"
+    argv = [sys.executable, "-m", "sim_check", "sweep", "--controller", "mlca-c", "--avs", "1", "--runs", "6",
+            "--jobs", "1", "--db", str(db), "--scenario", str(SHORT)]  # fmt: skip
+    sweep = subprocess.Popen(
+        argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if db.exists() and len(rows(db, "runs")) >= 2:
+            break
+        time.sleep(0.2)
+    os.killpg(sweep.pid, signal.SIGKILL)
+    sweep.wait()
+    before = rows(db, "runs")
+    assert 2 <= len(before) < 6, "the sweep should be killed halfway"
+    for run in before:  # every committed run is whole
+        assert len([r for r in rows(db, "av_metrics") if r[:3] == run[:3]]) == 1
+    assert (
+        main(
+            ["sweep", "--controller", "mlca-c", "--avs", "1", "--runs", "6", "--db", str(db), "--scenario", str(SHORT)]
+        )
+        == 2
+    )
+    assert subprocess.run([*argv, "--resume"], cwd=ROOT, capture_output=True, check=False).returncode == 0
+    after = rows(db, "runs")
+    assert sorted(r[2] for r in after) == list(range(6))
+    assert after[: len(before)] == before or set(before) <= set(after)
+
+
+@pytest.mark.slow
+def test_hung_runs_fail_with_a_reason_and_the_sweep_goes_on(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    db = tmp_path / "r.sqlite"
+    argv = ["sweep", "--controller", "mlca-c", "--avs", "1", "--runs", "2", "--jobs", "1", "--timeout", "0.01"]
+    assert main([*argv, "--db", str(db), "--scenario", str(SHORT)]) == 1
+    failed = rows(db, "runs")
+    assert len(failed) == 2 and all(r[3] == "failed" and "hung" in str(r[4]) for r in failed)
+    assert "0 runs done, 2 failed" in capsys.readouterr().out
+
+
+def test_scenario_errors_name_the_line(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[road]\nlanes = 5\nlenght_m = 3\n")
+    with pytest.raises(SpecError, match=r"bad.toml:3:12: error: unknown key 'lenght_m' in \[road\]"):
+        load_scenario(bad)
+    bad.write_text("[traffic]\ncars = -4\n")
+    with pytest.raises(SpecError, match=r"bad.toml:2:8: error: 'cars' in \[traffic\] must be positive"):
+        load_scenario(bad)
+
+
+def test_paper_defaults() -> None:
+    s = load_scenario()
+    assert (s.road.lanes, s.road.highway_speed_kmh, s.traffic.cars, s.target_lane) == (5, 80, 100, 2)
