@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,7 +36,9 @@ class Controller:
         return self.py.invariants(state, inputs)  # type: ignore[union-attr]
 
 
+@functools.cache
 def load_controller(name: str, generated: Path = ROOT / "generated") -> Controller:
+    """The controller, loaded (and for C, compiled) once per process."""
     if name not in CONTROLLERS:
         raise UsageError(f"error: unknown controller '{name}' (known: {', '.join(CONTROLLERS)})")
     machine, lang = name.rsplit("-", 1)

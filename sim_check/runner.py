@@ -112,8 +112,8 @@ class ClosedLoop:
         self.collisions()
         claims: list[Claim] = []
         for av in sorted(self.state):
-            self.observe(av)
-            self.decide(av, t, claims)
+            where = self.observe(av)
+            self.decide(av, t, claims, where)
 
     def collisions(self) -> None:
         for c in self.sumo.simulation.getCollisions():
@@ -125,9 +125,9 @@ class ClosedLoop:
                 if vid in self.metrics:
                     self.metrics[vid].collisions += 1
 
-    def observe(self, av: str) -> None:
+    def observe(self, av: str) -> tuple[str, int, float]:
         sumo, m = self.sumo, self.metrics[av]
-        edge, lane = sumo.vehicle.getRoadID(av), sumo.vehicle.getLaneIndex(av)
+        edge, lane, pos = sumo.vehicle.getRoadID(av), sumo.vehicle.getLaneIndex(av), sumo.vehicle.getLanePosition(av)
         m.distance_m = sumo.vehicle.getDistance(av)
         before = self.place.get(av)
         if before is not None and before[0] == edge and before[1] != lane and not edge.startswith(":"):
@@ -142,10 +142,11 @@ class ClosedLoop:
         if leader is not None and leader[0] and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
-        self.digest.update(f"{av}|{edge}|{lane}|{sumo.vehicle.getLanePosition(av):.3f}\n".encode())
+        self.digest.update(f"{av}|{edge}|{lane}|{pos:.3f}\n".encode())
+        return edge, lane, pos
 
-    def decide(self, av: str, t: float, claims: list[Claim]) -> None:
-        sensed = sense(self.sumo, av, self.scenario.target_lane, claims)
+    def decide(self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float]) -> None:
+        sensed = sense(self.sumo, av, self.scenario.target_lane, claims, where)
         if sensed is None:
             return
         old = self.state[av]
@@ -164,7 +165,7 @@ class ClosedLoop:
             target = sensed.lane + side
             self.sumo.vehicle.changeLane(av, target, 1.0)
             self.last_change[av] = t
-            claims.append(Claim(av, sensed.edge, target, self.sumo.vehicle.getLanePosition(av)))
+            claims.append(Claim(av, sensed.edge, target, where[2]))
 
     @property
     def done(self) -> bool:

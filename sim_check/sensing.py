@@ -69,19 +69,17 @@ def _claimed(claims: list[Claim], av: str, edge: str, lane: int, pos: float) -> 
     return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
 
 
-def sense(sumo: Any, av: str, target: int, claims: list[Claim]) -> Sensed | None:
-    """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction)."""
-    edge = sumo.vehicle.getRoadID(av)
+def sense(sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str, int, float]) -> Sensed | None:
+    """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction).
+    `where` is the AV's edge, lane index and position on the lane, already read this step."""
+    edge, lane, pos = where
     wanted = wanted_lane(edge, target)
     if wanted is None:
         return None
-    lane = sumo.vehicle.getLaneIndex(av)
     direction = (wanted > lane) - (wanted < lane)
     lanes = sumo.edge.getLaneNumber(edge)
-    lane_id = sumo.vehicle.getLaneID(av)
-    remaining = sumo.lane.getLength(lane_id) - sumo.vehicle.getLanePosition(av)
     ends = edge == "acc" and lane == 0
-    pos = sumo.vehicle.getLanePosition(av)
+    remaining = sumo.lane.getLength(f"{edge}_{lane}") - pos if ends else float("inf")
     left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)
     right = direction < 0 and lane > 0 and not _claimed(claims, av, edge, lane - 1, pos)
     inputs = {

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+
 from scripts.refresh_docs import BLOCK, DOCS, ROOT, run
 
 BLOCKS = [

@@ -11,11 +11,11 @@ import time
 from pathlib import Path
 
 import pytest
+
+from mlca_verify.errors import SpecError
 from sim_check.cli import main
 from sim_check.runner import run_once
 from sim_check.scenario import load_scenario
-
-from mlca_verify.errors import SpecError
 
 ROOT = Path(__file__).parent.parent
 SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
