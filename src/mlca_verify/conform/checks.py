@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -197,7 +198,13 @@ CPPCHECK = ("cppcheck", "--std=c99", "--enable=all", "--inconclusive", "--error-
 
 
 def cppcheck(t: Target) -> Outcome:
-    ran = run([*CPPCHECK, str(t.c_file)], timeout=300, cwd=t.build)
+    # cppcheck's addons write dump files beside the source: check a private copy, so that runs in parallel on
+    # the same generated file cannot trip over each other and nothing is written into generated/
+    private = t.build / "cppcheck"
+    private.mkdir(exist_ok=True)
+    for source in (t.c_file, *t.c_file.parent.glob("*.h")):
+        shutil.copy2(source, private / source.name)
+    ran = run([*CPPCHECK, t.c_file.name], timeout=300, cwd=private)
     findings = [line for line in ran.output.splitlines() if re.search(r":\d+:\d+: ", line)]
     if ran.returncode != 0 or findings:
         first = findings[0] if findings else ran.output.strip()
