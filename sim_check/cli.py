@@ -16,7 +16,7 @@ from sim_check import db
 from sim_check.controllers import CONTROLLERS
 from sim_check.runner import MARKS_KM, RunResult, run_once
 from sim_check.scenario import load_scenario
-from sim_check.sweep import Sweep
+from sim_check.sweep import RaySweep, Sweep
 
 
 class _Parser(argparse.ArgumentParser):
@@ -43,6 +43,7 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--resume", action="store_true", help="skip the runs the database already holds")
     sweep.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's)")
     sweep.add_argument("--timeout", type=float, default=600.0, help="seconds before a run is declared hung")
+    sweep.add_argument("--ray", metavar="ADDRESS", help="run on the Ray cluster at ADDRESS (host:port) instead")
     return parser
 
 
@@ -106,8 +107,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             f"{args.db}: error: already holds {len(have & set(wanted))} of these runs; add --resume to continue"
         )
     todo = [job for job in wanted if job not in have]
+    where = f"the Ray cluster at {args.ray}" if args.ray else f"{args.jobs} workers"
     print(f"{len(wanted)} runs wanted, {len(wanted) - len(todo)} already in {args.db}, {len(todo)} to run "
-          f"on {args.jobs} workers", flush=True)  # fmt: skip
+          f"on {where}", flush=True)  # fmt: skip
     counts = {"done": 0, "failed": 0, "violations": 0}
 
     def progress(r: RunResult) -> None:
@@ -119,7 +121,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                          f"{counts['violations']} monitor violations")  # fmt: skip
         sys.stderr.flush()
 
-    Sweep(scenario, args.db, args.jobs, args.timeout).run(todo, progress)
+    if args.ray:
+        RaySweep(scenario, args.db, args.ray, args.timeout).run(todo, progress)
+    else:
+        Sweep(scenario, args.db, args.jobs, args.timeout).run(todo, progress)
     sys.stderr.write("\n")
     summary = f"{counts['done']} runs done, {counts['failed']} failed, {counts['violations']} monitor violations"
     print(f"{summary}; results in {args.db}")

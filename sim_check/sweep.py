@@ -5,8 +5,10 @@ recorded as failed with the reason, and the sweep goes on."""
 
 from __future__ import annotations
 
+import logging
 import multiprocessing as mp
 import queue
+import socket
 import sys
 import tempfile
 import time
@@ -15,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mlca_verify.errors import UsageError
 from sim_check import db
 from sim_check.runner import RunResult, run_once
 from sim_check.scenario import Scenario
@@ -111,3 +114,66 @@ class Sweep:
         db.store(self.conn, result)
         finished.append(result)
         progress(result)
+
+
+def _ray_job(scenario: Scenario, job: Job) -> RunResult:
+    controller, avs, seed = job
+    with tempfile.TemporaryDirectory(prefix="mlca-sim-ray-") as work:
+        return run_once(scenario.with_avs(avs), controller, seed, Path(work))
+
+
+class RaySweep(Sweep):
+    """The same sweep on a Ray cluster: one task per run, at most one per cluster CPU in flight, so that a task
+    is running from its submission on and the timeout measures the run. Results are stored by this process as
+    each task ends, exactly as in a local sweep."""
+
+    def __init__(self, scenario: Scenario, db_path: Path, address: str, timeout_s: float) -> None:
+        super().__init__(scenario, db_path, 1, timeout_s)
+        try:
+            import ray
+        except ImportError:
+            raise UsageError("error: --ray needs the ray package: pip install 'ray>=2.9'") from None
+        self.ray = ray
+        host, _, port = address.rpartition(":")
+        try:
+            socket.create_connection((host or "127.0.0.1", int(port)), timeout=3).close()
+        except (OSError, ValueError) as err:
+            raise UsageError(f"error: cannot connect to the Ray cluster at {address}: {err}") from None
+        try:
+            ray.init(address=address, logging_level=logging.ERROR, log_to_driver=False)
+        except (ConnectionError, RuntimeError, ValueError) as err:
+            raise UsageError(f"error: cannot connect to the Ray cluster at {address}: {err}") from None
+        resources: dict[str, float] = ray.cluster_resources()  # type: ignore[no-untyped-call]
+        self.parallel = max(1, int(resources.get("CPU", 1)))
+        self.remote = ray.remote(max_retries=0)(_ray_job)
+
+    def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
+        pending = list(todo)
+        flight: dict[Any, tuple[Job, float]] = {}
+        finished: list[RunResult] = []
+        try:
+            while pending or flight:
+                while pending and len(flight) < self.parallel:
+                    job = pending.pop(0)
+                    flight[self.remote.remote(self.scenario, job)] = (job, time.monotonic())
+                ready, _ = self.ray.wait(list(flight), num_returns=1, timeout=0.5)
+                for ref in ready:
+                    job, _ = flight.pop(ref)
+                    self.finish(self._result(ref, job), finished, progress)
+                for ref, (job, since) in list(flight.items()):
+                    if time.monotonic() - since > self.timeout_s:
+                        self.ray.cancel(ref, force=True)
+                        del flight[ref]
+                        reason = f"no result within {self.timeout_s:.0f} s: the simulator hung"
+                        self.finish(RunResult(*job, status="failed", reason=reason), finished, progress)
+        finally:
+            self.ray.shutdown()
+        return finished
+
+    def _result(self, ref: Any, job: Job) -> RunResult:
+        try:
+            result: RunResult = self.ray.get(ref)
+            return result
+        except Exception as err:  # a task or worker that died fails this run only
+            reason = f"{type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''}"
+            return RunResult(*job, status="failed", reason=reason)
