@@ -30,6 +30,8 @@ class Road:
     ramp_length_m: float = 300
     merge_length_m: float = 250
     approach_m: float = 500
+    osm: str = ""  # an OpenStreetMap file to import instead of the built-in highway (relative to the scenario)
+    route: str = ""  # with `osm`: the edge ids every vehicle drives, space-separated
 
 
 @dataclass(frozen=True)
@@ -73,6 +75,14 @@ def load_scenario(path: Path | None = None) -> Scenario:
         if key not in sections:
             raise SpecError(where.loc((key,)), f"unknown section [{key}] (known: road, traffic)")
         sections[key] = _section(sections[key], table, where, key)
+    road: Road = sections["road"]
+    if road.osm:
+        osm = (path.parent / road.osm).resolve()
+        if not osm.is_file():
+            raise SpecError(where.loc(("road", "osm")), f"OpenStreetMap file '{road.osm}' not found (looked for {osm})")
+        if not road.route.split():
+            raise SpecError(where.loc(("road", "osm")), "an OpenStreetMap road needs 'route', the edge ids to drive")
+        sections["road"] = replace(road, osm=str(osm))
     return Scenario(**sections)
 
 
@@ -110,13 +120,16 @@ def sumo_bin(tool: str) -> str:
 def build(scenario: Scenario, seed: int, work: Path) -> Built:
     """Write the network (by netconvert) and the seeded routes for one run into `work`."""
     work.mkdir(parents=True, exist_ok=True)
-    net = work / "highway.net.xml"
+    net = work / ("osm.net.xml" if scenario.road.osm else "highway.net.xml")
     if not net.exists():
-        _write_plain(scenario.road, work)
+        if scenario.road.osm:
+            sources = ["--osm-files", scenario.road.osm]
+        else:
+            _write_plain(scenario.road, work)
+            sources = ["--node-files", str(work / "highway.nod.xml"), "--edge-files", str(work / "highway.edg.xml"),
+                       "--connection-files", str(work / "highway.con.xml")]  # fmt: skip
         done = subprocess.run(
-            [sumo_bin("netconvert"), "--node-files", str(work / "highway.nod.xml"), "--edge-files",
-             str(work / "highway.edg.xml"), "--connection-files", str(work / "highway.con.xml"),
-             "--no-turnarounds", "true", "--no-warnings", "true", "-o", str(net)],
+            [sumo_bin("netconvert"), *sources, "--no-turnarounds", "true", "--no-warnings", "true", "-o", str(net)],
             capture_output=True, text=True, check=False,
         )  # fmt: skip
         if done.returncode != 0:
@@ -156,20 +169,26 @@ def _write_routes(scenario: Scenario, seed: int, path: Path) -> tuple[str, ...]:
     rng = random.Random(seed)
     t = scenario.traffic
     cars = []
+    osm = bool(scenario.road.osm)
+    lanes = scenario.road.lanes
     for k in range(t.cars):
         depart = rng.uniform(0, t.depart_window_s)
-        on_ramp = rng.random() < 0.1
-        lane = 0 if on_ramp else rng.randrange(scenario.road.lanes)
+        on_ramp = rng.random() < 0.1 and not osm
+        lane = 0 if on_ramp else rng.randrange(lanes)
         factor = max(0.7, min(1.3, rng.gauss(1.0, 0.1)))
         cars.append((depart, f"car{k}", "ramp_route" if on_ramp else "main_route", lane, factor))
-    avs = [(t.av_depart_s + 10.0 * k, f"av{k}", "ramp_route", 0, 1.0) for k in range(t.avs)]
+    av_route = "main_route" if osm else "ramp_route"
+    avs = [(t.av_depart_s + 10.0 * k, f"av{k}", av_route, 0, 1.0) for k in range(t.avs)]
+    main = scenario.road.route if osm else "hw_in acc hw"
     lines = [
         "<routes>",
         '  <vType id="car" vClass="passenger" speedDev="0.1"/>',
         '  <vType id="av" vClass="passenger" speedDev="0" color="0,200,0"/>',
-        '  <route id="main_route" edges="hw_in acc hw"/>',
-        '  <route id="ramp_route" edges="ramp acc hw"/>',
+        f'  <route id="main_route" edges="{main}"/>',
+        *([] if osm else ['  <route id="ramp_route" edges="ramp acc hw"/>']),
     ]
+    if osm:  # departure lanes must exist on the first edge of the route; the OSM road decides how many
+        cars = [(d, v, r, 0, f) for d, v, r, _, f in cars]
     for depart, vid, route, lane, factor in sorted(cars + avs):
         vtype = "av" if vid.startswith("av") else "car"
         lines.append(

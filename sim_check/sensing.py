@@ -1,7 +1,8 @@
 """Sensing: N, W, L and R for one AV from libsumo, with the thresholds the docs state.
 
 - N, a lane change is wanted: the AV is not in its wanted lane. On the acceleration lane (the merge) the wanted
-  lane is the highway's target lane (the middle one, Sec. III); on the highway it is the target lane. N drops as
+  lane is the highway's target lane (the middle one, Sec. III); on the highway it is the target lane; on an
+  imported OpenStreetMap road, the middle lane of the current edge. N drops as
   soon as the AV is in the wanted lane (finding F8: nothing else ends a lane change).
 - W, the AV can afford to wait: its current lane continues for more than `URGENT_M` metres (the acceleration
   lane ends; the highway lanes do not).
@@ -43,12 +44,16 @@ class Sensed:
     edge: str
 
 
-def wanted_lane(edge: str, target: int) -> int | None:
+def wanted_lane(edge: str, target: int, lanes: int) -> int | None:
+    """The lane the AV wants on `edge`: the target lane on the built-in highway, the middle lane elsewhere
+    (an imported OpenStreetMap road); None where it makes no decision (the ramp, inside junctions)."""
     if edge == "acc":
         return target + 1  # lane i+1 of the acceleration edge continues as lane i of the highway
     if edge in ("hw", "hw_in"):
         return target
-    return None
+    if edge == "ramp" or edge.startswith(":"):
+        return None
+    return lanes // 2
 
 
 def _gap_ok(sumo: Any, av: str, mode_leader: int, mode_follower: int) -> bool:
@@ -73,11 +78,13 @@ def sense(sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str
     """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction).
     `where` is the AV's edge, lane index and position on the lane, already read this step."""
     edge, lane, pos = where
-    wanted = wanted_lane(edge, target)
+    if edge == "ramp" or edge.startswith(":"):
+        return None
+    lanes = sumo.edge.getLaneNumber(edge)
+    wanted = wanted_lane(edge, target, lanes)
     if wanted is None:
         return None
     direction = (wanted > lane) - (wanted < lane)
-    lanes = sumo.edge.getLaneNumber(edge)
     ends = edge == "acc" and lane == 0
     remaining = sumo.lane.getLength(f"{edge}_{lane}") - pos if ends else float("inf")
     left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)

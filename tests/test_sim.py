@@ -146,3 +146,23 @@ def test_unreachable_ray_cluster_is_a_usage_error(tmp_path: Path, capsys: pytest
     argv = ["sweep", "--runs", "1", "--avs", "1", "--db", str(tmp_path / "r.sqlite"), "--ray", "127.0.0.1:9"]
     assert main([*argv, "--scenario", str(SHORT)]) == 2
     assert "cannot connect to the Ray cluster at 127.0.0.1:9" in capsys.readouterr().err
+
+
+def test_openstreetmap_road_is_imported_and_driven(tmp_path: Path) -> None:
+    scenario_file = tmp_path / "osm.toml"
+    osm = ROOT / "tests" / "fixtures" / "small.osm"
+    scenario_file.write_text(
+        f'[road]\nosm = "{osm}"\nroute = "100 101"\nlanes = 3\n\n[traffic]\ncars = 10\navs = 1\ndepart_window_s = 20\n'
+    )
+    result = run_once(load_scenario(scenario_file), "mlca_r-c", 3, tmp_path / "work")
+    assert result.status == "done" and result.violations == []
+    av = result.metrics[0].row()
+    assert av["arrived"] and av["lc_5km"] == 1  # from lane 0 into the middle lane of the three
+    assert 1900 < result.metrics[0].distance_m < 2100
+
+
+def test_openstreetmap_road_needs_a_route(tmp_path: Path) -> None:
+    scenario_file = tmp_path / "osm.toml"
+    scenario_file.write_text(f'[road]\nosm = "{ROOT / "tests" / "fixtures" / "small.osm"}"\n')
+    with pytest.raises(SpecError, match=r"osm\.toml:2:7: error: an OpenStreetMap road needs 'route'"):
+        load_scenario(scenario_file)
