@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import json
 import sys
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
+from mlca_verify.cli import Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError
 from sim_check import db
 from sim_check.controllers import CONTROLLERS
@@ -19,14 +19,9 @@ from sim_check.scenario import load_scenario
 from sim_check.sweep import RaySweep, Sweep
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(f"{self.prog}: error: {message}")
-
-
 def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="mlca-sim", description="Run the generated MLCA controllers closed loop in SUMO.")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parser = Parser(prog="mlca-sim", description="Run the generated MLCA controllers closed loop in SUMO.")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     run = sub.add_parser("run", help="one run")
     run.add_argument("--controller", default="mlca-c", choices=CONTROLLERS)
     run.add_argument("--avs", type=int, default=None, help="number of AVs (default: the scenario's)")
@@ -82,7 +77,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.db:
         db.store(db.connect(args.db), result)
     if args.json:
-        args.json.write_text(json.dumps(result.to_json(), indent=2) + "\n")
+        write_json(str(args.json), result.to_json())
     return 0 if result.status == "done" and not result.violations else 1
 
 

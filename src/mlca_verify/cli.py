@@ -32,15 +32,17 @@ from mlca_verify.spec import LoadedSpec, load_spec
 EXIT_OK, EXIT_FINDING, EXIT_USAGE = 0, 1, 2
 
 
-class _Parser(argparse.ArgumentParser):
+class Parser(argparse.ArgumentParser):
+    """argparse that raises `UsageError` (one line, exit 2) instead of printing usage and exiting."""
+
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{self.prog}: error: {message}")
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="mlca-verify", description="Prove, compare and generate the MLCA lane-change machine.")
+    parser = Parser(prog="mlca-verify", description="Prove, compare and generate the MLCA lane-change machine.")
     parser.add_argument("--version", action="version", version=f"mlca-verify {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
 
     check = sub.add_parser("check", help="prove every built-in check and declared property of each spec")
     check.add_argument("specs", nargs="+", metavar="SPEC", help="spec files (TOML)")
@@ -95,15 +97,15 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _write_text(path: str, text: str) -> None:
+def write_text(path: str, text: str) -> None:
     try:
         Path(path).write_text(text, encoding="utf-8")
     except OSError as err:
         raise UsageError(f"{path}: error: cannot write: {err.strerror or err}") from None
 
 
-def _write_json(path: str, document: object) -> None:
-    _write_text(path, json.dumps(document, indent=2, sort_keys=False) + "\n")
+def write_json(path: str, document: object) -> None:
+    write_text(path, json.dumps(document, indent=2, sort_keys=False) + "\n")
 
 
 def _select(results: list[Result], only: str | None) -> list[Result]:
@@ -127,12 +129,12 @@ def cmd_check(args: argparse.Namespace) -> int:
             print(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names))
         print(f"{spec.path}: {report.summary_text(results)}\n")
     if args.json:
-        _write_json(args.json, report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
+        write_json(args.json, report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
     for_ci = [(s.path, s.machine, r) for s, r in checked]
     if args.junit:
-        _write_text(args.junit, ci_formats.junit_xml(for_ci))
+        write_text(args.junit, ci_formats.junit_xml(for_ci))
     if args.sarif:
-        _write_json(args.sarif, ci_formats.sarif(for_ci))
+        write_json(args.sarif, ci_formats.sarif(for_ci))
     if args.emit_tests:
         _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
     return EXIT_OK if all(r.ok for _, results in checked for r in results) else EXIT_FINDING
@@ -216,7 +218,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
         passed = sum(o.ok for o in results[-1].outcomes)
         print(f"{spec.path}: {passed} of {len(results[-1].outcomes)} checks passed\n")
     if args.json:
-        _write_json(args.json, {"schema": "mlca-verify.conform/1", "specs": [r.to_json() for r in results]})
+        write_json(args.json, {"schema": "mlca-verify.conform/1", "specs": [r.to_json() for r in results]})
     return EXIT_OK if all(r.ok for r in results) else EXIT_FINDING
 
 
@@ -232,7 +234,7 @@ def cmd_diagram(args: argparse.Namespace) -> int:
     machine = load_spec(args.spec, compare=False).machine
     text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
     if args.out:
-        _write_text(args.out, text)
+        write_text(args.out, text)
     else:
         sys.stdout.write(text)
     return EXIT_OK
