@@ -45,10 +45,10 @@ def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") 
     rows = []
     for index, step in enumerate(cx.steps):
         mark = "loop->" if cx.loop_start == index else ""
-        bits = [("1" if step.inputs.get(n) else "0") for n in inputs]
+        values = list(bits(step.inputs, inputs))
         stuck = step.outcome.transition is None and not step.alternatives
         nxt = "stuck" if stuck else (step.outcome.next or "-")
-        rows.append([mark, str(index + 1), step.state, *bits, _fired_text(step.outcome), nxt])
+        rows.append([mark, str(index + 1), step.state, *values, _fired_text(step.outcome), nxt])
         rows.extend(["", "", "", *[""] * len(inputs), "  or " + _outcome_text(alt), ""] for alt in step.alternatives)
     headers = ["", "step", "state", *inputs, "transition", "next"]
     text = table(headers, rows, indent)

@@ -15,22 +15,18 @@ class Reference:
         self.solver = Solver(machine.input_names)
         self.enc = Encoding(machine, self.solver)
 
-    def point(self, inputs: dict[str, bool]) -> z3.BoolRef:
-        vars_ = self.solver.vars
-        return z3.And(*[vars_[n] if inputs[n] else z3.Not(vars_[n]) for n in self.machine.input_names])
-
     def next_state(self, state: str | None, inputs: dict[str, bool]) -> str:
         """The next state; an out-of-range state (None) goes to the initial state, as the code contract says."""
         if state is None:
             return self.machine.initial
-        point = self.point(inputs)
+        point = self.solver.point(inputs)
         fired = [m.target for m in self.enc.moves[state] if self.solver.check(z3.And(point, m.cond)) == "sat"]
         if len(fired) != 1:
             raise AssertionError(f"{state} under {inputs}: {len(fired)} moves fire")
         return fired[0]
 
     def failing_invariants(self, state: str, inputs: dict[str, bool]) -> list[str]:
-        point = self.point(inputs)
+        point = self.solver.point(inputs)
         failing = []
         for inv in self.machine.invariants:
             formula = z3.And(point, z3.Not(encode(inv.expr, self.solver.vars, state)))

@@ -8,7 +8,6 @@ one timestamp is `generated_at`, which SOURCE_DATE_EPOCH fixes too.
 from __future__ import annotations
 
 import hashlib
-import re
 import sqlite3
 import sys
 from dataclasses import dataclass, field
@@ -25,6 +24,7 @@ from mlca_verify.conform.checks import Outcome
 from mlca_verify.conform.tools import run
 from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError, UsageError
+from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine, show
@@ -69,11 +69,12 @@ class Evidence:
     readings: list[LoadedSpec]
     generated_at: str
     db: Path | None = None
+    loop: dict[str, Any] = field(default_factory=dict)  # closed_loop() of `db`, read once
     data: dict[str, Any] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
-        loop_ok = closed_loop(self.db, self.spec.machine.name.lower())["status"] != "failed"
+        loop_ok = self.loop.get("status") != "failed"
         return all(r.ok for r in self.results) and all(o.ok for o in self.outcomes) and loop_ok
 
 
@@ -83,6 +84,7 @@ def collect(spec_path: str, readings: list[str], generated: Path, db: Path | Non
     outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
     loaded_readings = [load_spec(p, compare=False) for p in readings]
     ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, db)
+    ev.loop = closed_loop(db, spec.machine.name.lower())
     ev.data = document(ev)
     return ev
 
@@ -106,7 +108,7 @@ def document(ev: Evidence) -> dict[str, Any]:
         "artifacts": artifacts(ev),
         "proofs": [proof(r) for r in ev.results],
         "conformance": [{"name": o.name, "ok": o.ok, "detail": o.detail, "data": o.data} for o in ev.outcomes],
-        "closed_loop": closed_loop(ev.db, ev.spec.machine.name.lower()),
+        "closed_loop": ev.loop,
         "traceability": traceability(ev),
         "readings": readings(ev),
         "argument": argument(ev),
@@ -265,7 +267,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
             f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}",
             "G2",
             r.ok,
-            link=f"#proof-{_anchor(r.prop)}",
+            link=f"#proof-{anchor(r.prop)}",
         )
     node(
         "G3", "goal", "The generated code is the code of this spec and these templates", "S1", by_name["up-to-date"].ok
@@ -296,7 +298,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     )
     node("Sn5.1", "solution", by_name["exhaustive"].detail, "G5", by_name["exhaustive"].ok, link="#check-exhaustive")
     node("Sn5.2", "solution", by_name["sequences"].detail, "G5", by_name["sequences"].ok, link="#check-sequences")
-    loop = closed_loop(ev.db, m.name.lower())
+    loop = ev.loop
     if loop["status"] == "undeveloped":
         node(
             "G6",
@@ -310,7 +312,3 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
         )
         node("Sn6.1", "solution", loop["detail"], "G6", loop["status"] == "ok", link="#closed-loop")
     return nodes
-
-
-def _anchor(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_-]", "-", text)

@@ -143,20 +143,16 @@ class Comparator:
             cube = dict(inputs)
             for name in names:
                 trial = {k: v for k, v in cube.items() if k != name}
-                if self.solver.check(z3.And(self.literals(trial), z3.Not(same))) == "unsat":
+                if self.solver.check(z3.And(self.solver.point(trial), z3.Not(same))) == "unsat":
                     cube = trial
-            blocked.append(self.literals(cube))
+            blocked.append(self.solver.point(cube))
             left, right = self.outcomes(state, inputs)
             result.append(Region(state, cube, left, right, (*path, inputs)))
         return result
 
-    def literals(self, cube: dict[str, bool]) -> z3.BoolRef:
-        vars_ = self.solver.vars
-        return z3.And(*[vars_[k] if v else z3.Not(vars_[k]) for k, v in cube.items()])
-
     def same_behaviour(self, state: str, inputs: dict[str, bool]) -> z3.BoolRef:
         """Inputs under which both machines fire the same transitions (or have the same gap) as under `inputs`."""
-        point = self.literals(inputs)
+        point = self.solver.point(inputs)
         parts = []
         for enc in (self.enc_l, self.enc_r):
             conds = [m.cond for m in enc.moves.get(state, ())]

@@ -51,6 +51,10 @@ class Solver:
         self.unknowns += 1
         return "unknown"
 
+    def point(self, values: dict[str, bool]) -> z3.BoolRef:
+        """The conjunction of input literals fixing each input in `values` to its value."""
+        return z3.And(*[self.vars[n] if v else z3.Not(self.vars[n]) for n, v in values.items()])
+
     def witness(self, formula: z3.BoolRef) -> dict[str, bool] | None:
         """A satisfying input valuation, made canonical: each input false where it can be, in declaration order.
 
