@@ -13,7 +13,7 @@ from pathlib import Path
 from mlca_verify.cli import Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError
 from sim_check import db
-from sim_check.controllers import CONTROLLERS
+from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.runner import MARKS_KM, RunResult, run_once
 from sim_check.scenario import load_scenario
 from sim_check.sweep import RaySweep, Sweep
@@ -30,7 +30,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--db", type=Path, help="also store the run in this results database")
     run.add_argument("--json", type=Path, help="also write the run as JSON")
     sweep = sub.add_parser("sweep", help="many runs over worker processes into a results database")
-    sweep.add_argument("--controller", default="mlca-c", help=f"comma-separated, of: {', '.join(CONTROLLERS)}")
+    sweep.add_argument("--controller", help=f"comma-separated, of: {', '.join(CONTROLLERS)} (default mlca-c)")
+    sweep.add_argument("--matrix", choices=["paper"],
+                       help=f"the paper's comparison: {', '.join(PAPER_MATRIX)}")  # fmt: skip
     sweep.add_argument("--avs", default="1,3", help="comma-separated AV counts (default 1,3)")
     sweep.add_argument("--runs", type=int, default=100, help="seeds 0..RUNS-1 per configuration (default 100)")
     sweep.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
@@ -39,6 +41,9 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's)")
     sweep.add_argument("--timeout", type=float, default=600.0, help="seconds before a run is declared hung")
     sweep.add_argument("--ray", metavar="ADDRESS", help="run on the Ray cluster at ADDRESS (host:port) instead")
+    report = sub.add_parser("report", help="figures and report.md beside the paper's values, from a results database")
+    report.add_argument("--db", type=Path, required=True, help="results database (SQLite) written by sweep")
+    report.add_argument("--out", type=Path, required=True, help="folder for the figures (PNG, SVG) and report.md")
     return parser
 
 
@@ -89,11 +94,15 @@ def _csv(text: str, cast: type, what: str) -> list:  # type: ignore[type-arg]
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    controllers = _csv(args.controller, str, "--controller")
+    if args.matrix and args.controller:
+        raise UsageError("error: give either --matrix or --controller, not both")
+    controllers = list(PAPER_MATRIX) if args.matrix else _csv(args.controller or "mlca-c", str, "--controller")
     unknown = [c for c in controllers if c not in CONTROLLERS]
     if unknown:
         raise UsageError(f"error: unknown controllers: {', '.join(unknown)} (known: {', '.join(CONTROLLERS)})")
     avs = _csv(args.avs, int, "--avs")
+    if not controllers or not avs or args.runs < 1 or args.jobs < 1:
+        raise UsageError("error: a sweep needs at least one controller, one AV count, --runs >= 1 and --jobs >= 1")
     scenario = load_scenario(args.scenario)
     wanted = list(itertools.product(controllers, avs, range(args.runs)))
     have = db.done(db.connect(args.db))
@@ -126,10 +135,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0 if counts["failed"] == 0 and counts["violations"] == 0 else 1
 
 
+def cmd_report(args: argparse.Namespace) -> int:
+    from sim_check.report import write_report
+
+    if not args.db.is_file():
+        raise UsageError(f"{args.db}: error: no such results database")
+    written = write_report(args.db, args.out)
+    print(f"wrote {len(written)} files to {args.out}: {', '.join(p.name for p in written)}")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
-        return {"run": cmd_run, "sweep": cmd_sweep}[args.command](args)
+        return {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report}[args.command](args)
     except MlcaError as err:
         print(str(err).splitlines()[0], file=sys.stderr)
         return 2

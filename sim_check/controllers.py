@@ -1,4 +1,8 @@
-"""The generated controllers: the Python module or the C library (ctypes), one per AV state."""
+"""The controllers an AV can have: the generated MLCA machines (Python module or C library via ctypes) and the
+paper's comparison models, each described by a `Setup` (what drives the AV and what SUMO is told).
+
+SUMO ships the lane-change models LC2013, SL2015 and DK2008, and nothing named LC2014, LC2017 or MOBIL; the
+`stands_for` of each setup says which SUMO model or implementation stands in for a name of the paper and why."""
 
 from __future__ import annotations
 
@@ -13,7 +17,62 @@ from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.spec import load_spec
 
 ROOT = Path(__file__).resolve().parent.parent
-CONTROLLERS = ("mlca-py", "mlca-c", "mlca_r-py", "mlca_r-c")
+
+
+@dataclass(frozen=True)
+class Setup:
+    """One controller of the harness.
+
+    kind: `fsm` (a generated machine decides, SUMO's lane changing off for the AV), `sumo` (SUMO's own lane-change
+    model decides), `mobil` (sim_check.mobil decides, SUMO's lane changing off), `without` (the AV changes lane
+    whenever N holds, with no gap check, SUMO's lane changing off).
+    av_type: extra vType attributes of the AVs; options: extra SUMO options (they apply to every vehicle)."""
+
+    name: str
+    kind: str
+    label: str
+    stands_for: str
+    av_type: str = ""
+    options: tuple[str, ...] = ()
+
+
+# Sec. IV-C of the paper names its comparison models; Sec. II describes them (LC2013, LC2014, LC2017, MOBIL,
+# IDM/LC, Continuous) and Fig. 6 adds "without algorithm".
+SUBLANE_RESOLUTION_M = 3.2  # chosen by bench/bench_matrix.py --lateral (see the README)
+SETUPS = {
+    s.name: s
+    for s in (
+        Setup("mlca-py", "fsm", "MLCA (Python)", "MLCA, Alg. 1: the generated Python code"),
+        Setup("mlca-c", "fsm", "MLCA", "MLCA, Alg. 1: the generated C code"),
+        Setup("mlca_r-py", "fsm", "MLCA-R (Python)", "the repaired machine (docs/findings.md F1), generated Python"),
+        Setup("mlca_r-c", "fsm", "MLCA-R", "the repaired machine (docs/findings.md F1), generated C"),
+        Setup("lc2013", "sumo", "LC2013", "LC2013 and LC2014: SUMO's LC2013 (Erdmann's 2014 description of SUMO's "
+              "lane-changing model is LC2013; SUMO has no model named LC2014)"),
+        Setup("sl2015", "sumo", "SL2015", "LC2017 and Continuous (sublane): SUMO's SL2015 sublane model, the newest "
+              "SUMO lane-change model, which weighs several leaders and followers across sublanes as the paper's "
+              "LC2017 description says; SUMO has no model named LC2017",
+              av_type='laneChangeModel="SL2015"', options=("--lateral-resolution", str(SUBLANE_RESOLUTION_M))),
+        Setup("continuous", "sumo", "Continuous", "Continuous: LC2013 with SUMO's continuous (non-instant) lane "
+              "changing, --lanechange.duration 3", options=("--lanechange.duration", "3")),
+        Setup("idm-lc", "sumo", "IDM/LC", "IDM/LC: IDM car following with SUMO's LC2013 for the AV",
+              av_type='carFollowModel="IDM"'),
+        Setup("dk2008", "sumo", "DK2008", "SUMO's oldest shipped lane-change model, for reference",
+              av_type='laneChangeModel="DK2008"'),
+        Setup("mobil", "mobil", "MOBIL", "MOBIL (Kesting, Treiber and Helbing 2007), implemented in sim_check.mobil"),
+        Setup("without", "without", "Without", "without algorithm: the AV changes lane whenever N holds, with no gap "
+              "check (laneChangeMode 0)"),
+    )
+}  # fmt: skip
+CONTROLLERS = tuple(SETUPS)
+FSM_CONTROLLERS = tuple(name for name, s in SETUPS.items() if s.kind == "fsm")
+# The paper's comparison (Sec. IV): every model once, MLCA as generated C, and the repair.
+PAPER_MATRIX = ("lc2013", "sl2015", "continuous", "idm-lc", "mobil", "without", "mlca-c", "mlca_r-c")
+
+
+def setup_of(name: str) -> Setup:
+    if name not in SETUPS:
+        raise UsageError(f"error: unknown controller '{name}' (known: {', '.join(CONTROLLERS)})")
+    return SETUPS[name]
 
 
 @dataclass
@@ -38,9 +97,9 @@ class Controller:
 
 @functools.cache
 def load_controller(name: str, generated: Path = ROOT / "generated") -> Controller:
-    """The controller, loaded (and for C, compiled) once per process."""
-    if name not in CONTROLLERS:
-        raise UsageError(f"error: unknown controller '{name}' (known: {', '.join(CONTROLLERS)})")
+    """The generated machine of an `fsm` controller, loaded (and for C, compiled) once per process."""
+    if setup_of(name).kind != "fsm":
+        raise UsageError(f"error: controller '{name}' is not a generated machine")
     machine, lang = name.rsplit("-", 1)
     spec = load_spec(ROOT / "spec" / f"{machine}.toml", compare=False)
     ir = machine_ir(spec, generated)

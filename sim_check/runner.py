@@ -1,8 +1,13 @@
 """One closed-loop run: SUMO through libsumo, sensing, the generated controller, the runtime monitor, metrics.
 
 One libsumo simulation per process (libsumo keeps one global simulation); the sweep runs each run in a worker
-process. SUMO's own lane changing is off for the AVs (laneChangeMode 0): every lane change they make is one the
-controller commanded, executed by SUMO even where unsafe, so the controller's own safety is what is measured.
+process. For the generated machines, MOBIL and "without", SUMO's own lane changing is off for the AVs
+(laneChangeMode 0): every lane change they make is one the controller commanded, executed by SUMO even where
+unsafe, so the controller's own safety is what is measured. For SUMO's models the AV keeps SUMO's defaults.
+
+Besides the paper's metrics, each AV records why it changed lane or did not (the mechanism): the episodes in
+which N held, whether the AV changed lane in each or it was never resolved, whether a safe gap towards the
+wanted side was seen and not taken (deferred), and the time spent in each state of the machine.
 """
 
 from __future__ import annotations
@@ -14,15 +19,21 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sim_check.controllers import Controller, load_controller
+from sim_check import mobil
+from sim_check.controllers import Controller, Setup, load_controller, setup_of
 from sim_check.scenario import Scenario, build, sumo_bin
-from sim_check.sensing import Claim, sense
+from sim_check.sensing import Claim, Leader, Sensed, sense
 
 MARKS_KM = (5, 10, 15, 20)
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
 DWELL_S = 3.0  # a commanded lane change is not repeated within this time (SUMO's change is instantaneous)
 TRACE_STEPS = 20  # steps of history stored with a monitor violation
 SIM_LIMIT_S = 3600.0
+SAMPLE_STEPS = 10  # the background traffic's speed is sampled every this many steps
+STATES = ("IDLE", "WAITING", "MOVING_LEFT", "MOVING_RIGHT")
+
+
+MECHANISM = ("needs", "needs_moved", "needs_open", "needs_deferred", "need_s", "deferred_s")
 
 
 @dataclass
@@ -36,6 +47,15 @@ class AvMetrics:
     arrive_s: float | None = None
     distance_m: float = 0.0
     monitor_violations: int = 0
+    mingap_contacts: int = 0  # AV pairs closer than the follower's minGap: SUMO's default collision criterion
+    needs: int = 0  # episodes in which N held
+    needs_moved: int = 0  # of those, episodes in which the AV changed lane
+    needs_open: int = 0  # of those, episodes still open when the AV arrived: the need was never resolved
+    needs_deferred: int = 0  # of those, episodes in which a safe gap towards the wanted side was not taken
+    need_s: float = 0.0
+    deferred_s: float = 0.0
+    state_s: dict[str, float] = field(default_factory=dict)
+    sensed: bool = False  # whether N, W, L and R were computed (not for SUMO's own models nor MOBIL)
 
     def changes_by(self, km: int) -> int:
         return sum(1 for d in self.lane_changes if d <= km * 1000.0)
@@ -52,6 +72,9 @@ class AvMetrics:
             "mean_speed_ms": None if not travel else self.distance_m / travel,
             "arrived": self.arrive_s is not None,
             "monitor_violations": self.monitor_violations,
+            "mingap_contacts": self.mingap_contacts,
+            **{k: (getattr(self, k) if self.sensed else None) for k in MECHANISM},
+            **{f"{state.lower()}_s": self.state_s.get(state) for state in STATES},
         }
 
 
@@ -66,6 +89,7 @@ class RunResult:
     wall_s: float = 0.0
     vehicle_steps: int = 0
     collisions: int = 0
+    bg_mean_speed_ms: float | None = None  # the other traffic, sampled every SAMPLE_STEPS steps
     trajectory_sha256: str = ""
     metrics: list[AvMetrics] = field(default_factory=list)
     violations: list[dict[str, Any]] = field(default_factory=list)
@@ -80,40 +104,78 @@ class RunResult:
         return data
 
 
+@dataclass
+class Need:
+    """The N episode an AV is in: whether the AV has changed lane in it, or passed up a safe gap."""
+
+    moved: bool = False
+    deferred: bool = False
+
+
 class ClosedLoop:
     """The state of one run between steps."""
 
-    def __init__(self, sumo: Any, controller: Controller, scenario: Scenario, av_ids: tuple[str, ...]) -> None:
+    def __init__(self, sumo: Any, setup: Setup, scenario: Scenario, av_ids: tuple[str, ...]) -> None:
         self.sumo = sumo
-        self.ctrl = controller
+        self.setup = setup
+        self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
         self.scenario = scenario
         self.av_ids = av_ids
         self.state: dict[str, int] = {}
-        self.metrics = {av: AvMetrics(av) for av in av_ids}
+        self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
         self.last_change: dict[str, float] = {}
         self.place: dict[str, tuple[str, int]] = {}
         self.braking: dict[str, bool] = {}
+        self.need: dict[str, Need] = {}
+        self.close: dict[str, set[str]] = {av: set() for av in av_ids}
         self.history: dict[str, deque[dict[str, Any]]] = {av: deque(maxlen=TRACE_STEPS) for av in av_ids}
         self.violations: list[dict[str, Any]] = []
         self.pairs: set[tuple[str, str]] = set()
         self.digest = hashlib.sha256()
+        self.dt = scenario.traffic.step_s
+        self.steps = 0
+        self.bg_speed = [0.0, 0]  # sum of sampled speeds, number of samples
+        self.edges: list[str] = []
 
     def step(self, t: float) -> None:
         sumo = self.sumo
         for av in sumo.simulation.getDepartedIDList():
             if av in self.metrics:
-                sumo.vehicle.setLaneChangeMode(av, 0)
-                self.state[av] = self.ctrl.initial
+                if self.setup.kind != "sumo":
+                    sumo.vehicle.setLaneChangeMode(av, 0)
+                self.state[av] = self.ctrl.initial if self.ctrl else 0
                 self.metrics[av].depart_s = t
         for av in sumo.simulation.getArrivedIDList():
             if av in self.metrics:
                 self.metrics[av].arrive_s = t
                 self.state.pop(av, None)
+                if self.need.pop(av, None) is not None:
+                    self.metrics[av].needs_open += 1
         self.collisions()
         claims: list[Claim] = []
+        speeds = 0.0
         for av in sorted(self.state):
-            where = self.observe(av)
-            self.decide(av, t, claims, where)
+            where, leader, speed = self.observe(av)
+            speeds += speed
+            self.decide(av, t, claims, where, leader)
+        self.steps += 1
+        if self.steps % SAMPLE_STEPS == 0:
+            self.sample(speeds, len(self.state))
+
+    def sample(self, av_speeds: float, avs: int) -> None:
+        """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs)."""
+        edge = self.sumo.edge
+        if not self.edges:
+            self.edges = [e for e in edge.getIDList() if not e.startswith(":")]
+        total, count = -av_speeds, -avs
+        for e in self.edges:
+            n = edge.getLastStepVehicleNumber(e)
+            if n:
+                total += edge.getLastStepMeanSpeed(e) * n
+                count += n
+        if count > 0:
+            self.bg_speed[0] += total
+            self.bg_speed[1] += count
 
     def collisions(self) -> None:
         for c in self.sumo.simulation.getCollisions():
@@ -125,13 +187,17 @@ class ClosedLoop:
                 if vid in self.metrics:
                     self.metrics[vid].collisions += 1
 
-    def observe(self, av: str) -> tuple[str, int, float]:
+    def observe(self, av: str) -> tuple[tuple[str, int, float], Leader, float]:
         sumo, m = self.sumo, self.metrics[av]
         edge, lane, pos = sumo.vehicle.getRoadID(av), sumo.vehicle.getLaneIndex(av), sumo.vehicle.getLanePosition(av)
         m.distance_m = sumo.vehicle.getDistance(av)
         before = self.place.get(av)
         if before is not None and before[0] == edge and before[1] != lane and not edge.startswith(":"):
             m.lane_changes.append(m.distance_m)
+            need = self.need.get(av)
+            if need is not None and not need.moved:
+                need.moved = True
+                m.needs_moved += 1
         self.place[av] = (edge, lane)
         braking = sumo.vehicle.getAcceleration(av) < -EMERGENCY_DECEL
         if braking and not self.braking.get(av, False):
@@ -142,37 +208,101 @@ class ClosedLoop:
         if leader is not None and leader[0] and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
+        self.mingap(av, leader)
         self.digest.update(f"{av}|{edge}|{lane}|{pos:.3f}\n".encode())
-        return edge, lane, pos
+        return (edge, lane, pos), (leader if leader and leader[0] else None), speed
 
-    def decide(self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float]) -> None:
-        sensed = sense(self.sumo, av, self.scenario.target_lane, claims, where)
+    def mingap(self, av: str, leader: Leader) -> None:
+        """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
+        the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact."""
+        follower = self.sumo.vehicle.getFollower(av, 50.0)
+        now = {vid for vid, gap in (leader or ("", 0.0), follower) if vid and gap < 0.0}
+        self.metrics[av].mingap_contacts += len(now - self.close[av])
+        self.close[av] = now
+
+    def decide(self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], leader: Leader) -> None:
+        kind = self.setup.kind
+        if kind == "sumo":
+            return
+        if kind == "mobil":
+            self.decide_mobil(av, t, where)
+            return
+        sensed = sense(self.sumo, av, self.scenario.target_lane, claims, where, leader=leader)
         if sensed is None:
             return
+        without = sensed.direction if sensed.inputs["N"] else 0
+        side = self.machine(av, t, sensed) if kind == "fsm" else without
+        if side and self.command(av, t, sensed.lane + side) and kind == "fsm":
+            claims.append(Claim(av, sensed.edge, sensed.lane + side, where[2]))
+        self.account(av, sensed, side)
+
+    def machine(self, av: str, t: float, sensed: Sensed) -> int:
+        """One step of the generated machine and its runtime monitor; the side it moves to (+1, -1 or 0)."""
+        ctrl = self.ctrl
+        assert ctrl is not None
         old = self.state[av]
-        new = self.ctrl.step(old, sensed.inputs)
+        new = ctrl.step(old, sensed.inputs)
         self.state[av] = new
-        names = self.ctrl.states
+        names = ctrl.states
+        state_s = self.metrics[av].state_s
+        state_s[names[new]] = state_s.get(names[new], 0.0) + self.dt
         self.history[av].append({"t": round(t, 3), "state": names[old], "inputs": sensed.inputs, "next": names[new]})
-        failing = self.ctrl.failing(new, sensed.inputs)
+        failing = ctrl.failing(new, sensed.inputs)
         if failing:
             self.metrics[av].monitor_violations += 1
             self.violations.append(
                 {"av": av, "time_s": round(t, 3), "invariants": failing, "trace": list(self.history[av])}
             )
-        side = {"MOVING_LEFT": 1, "MOVING_RIGHT": -1}.get(names[new], 0)
-        if side and t - self.last_change.get(av, -1e9) >= DWELL_S:
-            target = sensed.lane + side
-            self.sumo.vehicle.changeLane(av, target, 1.0)
-            self.last_change[av] = t
-            claims.append(Claim(av, sensed.edge, target, where[2]))
+        return {"MOVING_LEFT": 1, "MOVING_RIGHT": -1}.get(names[new], 0)
+
+    def command(self, av: str, t: float, target: int) -> bool:
+        """Ask SUMO for a lane change, at most once per DWELL_S (SUMO's change is instantaneous)."""
+        if t - self.last_change.get(av, -1e9) < DWELL_S:
+            return False
+        self.sumo.vehicle.changeLane(av, target, 1.0)
+        self.last_change[av] = t
+        return True
+
+    def account(self, av: str, sensed: Sensed, side: int) -> None:
+        """The mechanism: N episodes, and safe gaps towards the wanted side that the controller did not take."""
+        m, inputs = self.metrics[av], sensed.inputs
+        if not inputs["N"]:
+            self.need.pop(av, None)
+            return
+        need = self.need.get(av)
+        if need is None:
+            need = self.need[av] = Need()
+            m.needs += 1
+        m.need_s += self.dt
+        if (inputs["L"] or inputs["R"]) and not side:
+            m.deferred_s += self.dt
+            if not need.deferred:
+                need.deferred = True
+                m.needs_deferred += 1
+
+    def decide_mobil(self, av: str, t: float, where: tuple[str, int, float]) -> None:
+        edge, lane, pos = where
+        if edge == "ramp" or edge.startswith(":"):
+            return
+        lanes = self.sumo.edge.getLaneNumber(edge)
+        ends = edge == "acc" and lane == 0
+        lane_end = self.sumo.lane.getLength(f"{edge}_{lane}") - pos if ends else float("inf")
+        side = mobil.decide(
+            self.sumo, av, where, lanes, lane_end=lane_end, lowest=1 if edge == "acc" and lane > 0 else 0
+        )
+        if side:
+            self.command(av, t, lane + side)
 
     @property
     def done(self) -> bool:
         return all(m.arrive_s is not None for m in self.metrics.values())
 
 
-def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int) -> list[str]:
+def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
+    return [*_base_args(scenario, net, routes, seed), *options]
+
+
+def _base_args(scenario: Scenario, net: Path, routes: Path, seed: int) -> list[str]:
     return [
         sumo_bin("sumo"), "-n", str(net), "-r", str(routes), "--seed", str(seed),
         "--step-length", str(scenario.traffic.step_s),
@@ -181,15 +311,18 @@ def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int) -> list[st
     ]  # fmt: skip
 
 
-def run_once(scenario: Scenario, controller: str, seed: int, work: Path) -> RunResult:
-    """One run, start to finish; raises on a simulator failure (the sweep records it)."""
+def run_once(scenario: Scenario, controller: str, seed: int, work: Path, setup: Setup | None = None) -> RunResult:
+    """One run, start to finish; raises on a simulator failure (the sweep records it). `setup` replaces the
+    controller's registered setup (a benchmark varying SUMO options)."""
     import libsumo
 
     start = time.perf_counter()
-    built = build(scenario, seed, work)
-    ctrl = load_controller(controller)
-    libsumo.start(sumo_args(scenario, built.net, built.routes, seed))
-    loop = ClosedLoop(libsumo, ctrl, scenario, built.av_ids)
+    setup = setup or setup_of(controller)
+    built = build(scenario, seed, work, setup.av_type)
+    if setup.kind == "fsm":
+        load_controller(controller)  # compiled before SUMO starts; cached for the loop
+    libsumo.start(sumo_args(scenario, built.net, built.routes, seed, setup.options))
+    loop = ClosedLoop(libsumo, setup, scenario, built.av_ids)
     result = RunResult(controller, scenario.traffic.avs, seed)
     try:
         while True:
@@ -207,6 +340,7 @@ def run_once(scenario: Scenario, controller: str, seed: int, work: Path) -> RunR
         libsumo.close()
     result.wall_s = time.perf_counter() - start
     result.collisions = len(loop.pairs)
+    result.bg_mean_speed_ms = loop.bg_speed[0] / loop.bg_speed[1] if loop.bg_speed[1] else None
     result.metrics = [loop.metrics[av] for av in built.av_ids]
     result.violations = loop.violations
     result.trajectory_sha256 = loop.digest.hexdigest()

@@ -117,8 +117,9 @@ def sumo_bin(tool: str) -> str:
     return str(Path(sumo.SUMO_HOME) / "bin" / tool)
 
 
-def build(scenario: Scenario, seed: int, work: Path) -> Built:
-    """Write the network (by netconvert) and the seeded routes for one run into `work`."""
+def build(scenario: Scenario, seed: int, work: Path, av_type: str = "") -> Built:
+    """Write the network (by netconvert) and the seeded routes for one run into `work`; `av_type` holds extra
+    vType attributes of the AVs (a controller's car-following or lane-change model)."""
     work.mkdir(parents=True, exist_ok=True)
     net = work / ("osm.net.xml" if scenario.road.osm else "highway.net.xml")
     if not net.exists():
@@ -135,7 +136,7 @@ def build(scenario: Scenario, seed: int, work: Path) -> Built:
         if done.returncode != 0:
             raise ToolError(f"error: netconvert failed: {done.stderr.strip()}")
     routes = work / f"seed{seed}_avs{scenario.traffic.avs}.rou.xml"
-    av_ids = _write_routes(scenario, seed, routes)
+    av_ids = _write_routes(scenario, seed, routes, av_type)
     return Built(net, routes, av_ids)
 
 
@@ -165,7 +166,7 @@ def _write_plain(road: Road, work: Path) -> None:
     (work / "highway.con.xml").write_text("<connections>\n" + "\n".join(connections) + "\n</connections>\n")
 
 
-def _write_routes(scenario: Scenario, seed: int, path: Path) -> tuple[str, ...]:
+def _write_routes(scenario: Scenario, seed: int, path: Path, av_type: str) -> tuple[str, ...]:
     rng = random.Random(seed)
     t = scenario.traffic
     cars = []
@@ -183,7 +184,7 @@ def _write_routes(scenario: Scenario, seed: int, path: Path) -> tuple[str, ...]:
     lines = [
         "<routes>",
         '  <vType id="car" vClass="passenger" speedDev="0.1"/>',
-        '  <vType id="av" vClass="passenger" speedDev="0" color="0,200,0"/>',
+        f'  <vType id="av" vClass="passenger" speedDev="0" color="0,200,0"{" " + av_type if av_type else ""}/>',
         f'  <route id="main_route" edges="{main}"/>',
         *([] if osm else ['  <route id="ramp_route" edges="ramp acc hw"/>']),
     ]

@@ -1,15 +1,20 @@
 """Sensing: N, W, L and R for one AV from libsumo, with the thresholds the docs state.
 
-- N, a lane change is wanted: the AV is not in its wanted lane. On the acceleration lane (the merge) the wanted
-  lane is the highway's target lane (the middle one, Sec. III); on the highway it is the target lane; on an
-  imported OpenStreetMap road, the middle lane of the current edge. N drops as
-  soon as the AV is in the wanted lane (finding F8: nothing else ends a lane change).
+- N, a lane change is wanted, for one of two reasons:
+  - the AV is not in its wanted lane. On the acceleration lane (the merge) the wanted lane is the highway's target
+    lane (the middle one, Sec. III); on the highway it is the target lane; on an imported OpenStreetMap road, the
+    middle lane of the current edge. The direction is towards the wanted lane. While the leader in the next lane
+    on that side is slow (below) and within `LOOKAHEAD_M`, the AV is still overtaking it and N does not hold.
+  - in its wanted lane, the leader within `LOOKAHEAD_M` is slow: slower than `SLOWER` times the AV's allowed
+    speed. The direction is left (overtaking), or right where there is no lane to the left.
+  N drops as soon as neither holds (finding F8: nothing else ends a lane change).
 - W, the AV can afford to wait: its current lane continues for more than `URGENT_M` metres (the acceleration
   lane ends; the highway lanes do not).
 - L, R: the gap on that side is safe, and moving to that side brings the AV closer to its wanted lane. Safe:
   the leader in that lane is at least `TIME_GAP_S` ahead in time gap (and `MIN_GAP_M`), the follower at least
   `TIME_GAP_S` behind at its own speed, and the follower would not need to brake harder than `FOLLOWER_DECEL`
-  to keep from closing the gap; and no other AV has claimed that lane near the same position this step (V2V).
+  to keep from closing the gap (a vehicle beside the AV is reported as a leader or follower with a negative gap,
+  so it fails the check); and no other AV has claimed that lane near the same position this step (V2V).
 """
 
 from __future__ import annotations
@@ -18,12 +23,15 @@ from dataclasses import dataclass
 from typing import Any
 
 URGENT_M = 100.0
+LOOKAHEAD_M = 100.0
+SLOWER = 0.9
 TIME_GAP_S = 1.0
 MIN_GAP_M = 3.0
 FOLLOWER_DECEL = 4.0
 CLAIM_RADIUS_M = 30.0
 
-LEFT_LEADERS, LEFT_FOLLOWERS, RIGHT_LEADERS, RIGHT_FOLLOWERS = 3, 1, 2, 0
+
+Leader = tuple[str, float] | None  # libsumo's getLeader: (id, gap) or None
 
 
 @dataclass(frozen=True)
@@ -56,12 +64,21 @@ def wanted_lane(edge: str, target: int, lanes: int) -> int | None:
     return lanes // 2
 
 
-def _gap_ok(sumo: Any, av: str, mode_leader: int, mode_follower: int) -> bool:
+def neighbours(sumo: Any, av: str, side: int, leaders: bool) -> Any:
+    """The nearest vehicles ahead (leaders) or behind in the lane on `side` (+1 left, -1 right): (id, gap) pairs.
+    Named queries, not getNeighbors' bit modes (whose left/right bit is easily read backwards)."""
+    v = sumo.vehicle
+    if side > 0:
+        return v.getLeftLeaders(av) if leaders else v.getLeftFollowers(av)
+    return v.getRightLeaders(av) if leaders else v.getRightFollowers(av)
+
+
+def _gap_ok(sumo: Any, av: str, side: int) -> bool:
     v = sumo.vehicle.getSpeed(av)
-    for _vid, gap in sumo.vehicle.getNeighbors(av, mode_leader):
+    for _vid, gap in neighbours(sumo, av, side, leaders=True):
         if gap < max(MIN_GAP_M, v * TIME_GAP_S):
             return False
-    for vid, gap in sumo.vehicle.getNeighbors(av, mode_follower):
+    for vid, gap in neighbours(sumo, av, side, leaders=False):
         vf = sumo.vehicle.getSpeed(vid)
         if gap < max(MIN_GAP_M, vf * TIME_GAP_S):
             return False
@@ -74,9 +91,16 @@ def _claimed(claims: list[Claim], av: str, edge: str, lane: int, pos: float) -> 
     return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
 
 
-def sense(sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str, int, float]) -> Sensed | None:
+def _slow(sumo: Any, vid: str, gap: float, allowed: float) -> bool:
+    return gap < LOOKAHEAD_M and sumo.vehicle.getSpeed(vid) < SLOWER * allowed
+
+
+def sense(
+    sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader
+) -> Sensed | None:
     """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction).
-    `where` is the AV's edge, lane index and position on the lane, already read this step."""
+    `where` is the AV's edge, lane index and position on the lane, and `leader` its leader, already read this
+    step."""
     edge, lane, pos = where
     if edge == "ramp" or edge.startswith(":"):
         return None
@@ -84,7 +108,16 @@ def sense(sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str
     wanted = wanted_lane(edge, target, lanes)
     if wanted is None:
         return None
+    allowed = sumo.vehicle.getAllowedSpeed(av)
     direction = (wanted > lane) - (wanted < lane)
+    if direction == 0 and leader is not None and _slow(sumo, leader[0], leader[1], allowed):
+        direction = 1 if lane + 1 < lanes else -1
+    elif (  # back towards the wanted lane, unless still overtaking there
+        direction != 0
+        and edge != "acc"
+        and any(_slow(sumo, vid, gap, allowed) for vid, gap in neighbours(sumo, av, direction, leaders=True))
+    ):
+        direction = 0
     ends = edge == "acc" and lane == 0
     remaining = sumo.lane.getLength(f"{edge}_{lane}") - pos if ends else float("inf")
     left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)
@@ -92,7 +125,7 @@ def sense(sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str
     inputs = {
         "N": direction != 0,
         "W": not (ends and remaining < URGENT_M),
-        "L": left and _gap_ok(sumo, av, LEFT_LEADERS, LEFT_FOLLOWERS),
-        "R": right and _gap_ok(sumo, av, RIGHT_LEADERS, RIGHT_FOLLOWERS),
+        "L": left and _gap_ok(sumo, av, +1),
+        "R": right and _gap_ok(sumo, av, -1),
     }
     return Sensed(inputs, direction, lane, edge)

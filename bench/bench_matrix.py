@@ -1,0 +1,94 @@
+"""Benchmark the paper's full comparison matrix, and choose the sublane model's lateral resolution.
+
+Run on demand:
+- `.venv/bin/python bench/bench_matrix.py --runs 100 --jobs 2 --db matrix.sqlite`: every controller of
+  `--matrix paper` with 1 and 3 AVs over RUNS seeds (resumable: the database keeps finished runs), printing the
+  wall time of the whole matrix, the time per run of each controller, and the paper's figure for comparison
+  (6.5 hours for 100 runs of one configuration; target here: the whole matrix in under 40 minutes).
+- `.venv/bin/python bench/bench_matrix.py --lateral --runs 10`: the SL2015 sublane model at several lateral
+  resolutions on the same seeds: wall time per run and the AV's lane changes at 20 km and collisions, against the
+  finest resolution, so that the coarsest resolution whose results agree can be chosen.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import sqlite3
+import statistics
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from sim_check.cli import main as sim_main
+from sim_check.controllers import PAPER_MATRIX, SETUPS
+from sim_check.runner import RunResult, run_once
+from sim_check.scenario import load_scenario
+
+RESOLUTIONS = (0.4, 0.8, 1.6, 3.2)
+
+
+def _lateral_run(job: tuple[float, int]) -> tuple[float, int, RunResult]:
+    resolution, seed = job
+    setup = replace(SETUPS["sl2015"], options=("--lateral-resolution", str(resolution)))
+    with tempfile.TemporaryDirectory() as work:
+        return resolution, seed, run_once(load_scenario(), "sl2015", seed, Path(work), setup)
+
+
+def lateral(runs: int, jobs: int) -> None:
+    jobs_list = [(res, seed) for seed in range(runs) for res in RESOLUTIONS]
+    results: dict[float, dict[int, RunResult]] = {res: {} for res in RESOLUTIONS}
+    with mp.get_context("spawn").Pool(jobs) as pool:
+        for res, seed, result in pool.imap_unordered(_lateral_run, jobs_list):
+            results[res][seed] = result
+            print(f"  resolution {res} m, seed {seed}: {result.wall_s:.1f} s", flush=True)
+    finest = RESOLUTIONS[0]
+    print(f"SL2015, 1 AV, seeds 0..{runs - 1}, the paper's scenario:")
+    print(f"  {'resolution m':>12} {'wall s/run':>10} {'lc@20km mean':>12} {'diff vs finest':>14} "
+          f"{'AV collisions':>13} {'all collisions':>14}")  # fmt: skip
+    for res in RESOLUTIONS:
+        rows = [results[res][s] for s in range(runs)]
+        lc = [r.metrics[0].changes_by(20) for r in rows]
+        diffs = [a - results[finest][s].metrics[0].changes_by(20) for s, a in enumerate(lc)]
+        print(f"  {res:12.1f} {statistics.mean(r.wall_s for r in rows):10.1f} {statistics.mean(lc):12.2f} "
+              f"{statistics.mean(diffs):+14.2f} {sum(r.metrics[0].collisions for r in rows):13d} "
+              f"{sum(r.collisions for r in rows):14d}")  # fmt: skip
+
+
+def matrix(runs: int, jobs: int, db: Path) -> None:
+    start = time.perf_counter()
+    argv = ["sweep", "--matrix", "paper", "--runs", str(runs), "--jobs", str(jobs), "--db", str(db), "--resume"]
+    code = sim_main(argv)
+    wall = time.perf_counter() - start
+    conn = sqlite3.connect(db)
+    print(f"\nfull matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} workers: "
+          f"{wall / 60:.1f} min wall this invocation (sweep exit {code}); target under 40 min; the paper: "
+          "6.5 hours for 100 runs of one configuration")  # fmt: skip
+    print(f"  {'controller':12} {'avs':>3} {'runs':>5} {'mean s/run (one worker)':>24}")
+    for controller, avs, n, mean in conn.execute(
+        "SELECT controller, avs, COUNT(*), AVG(wall_s) FROM runs GROUP BY controller, avs ORDER BY controller, avs"
+    ):
+        print(f"  {controller:12} {avs:>3} {n:>5} {mean:24.2f}")
+    total = conn.execute("SELECT SUM(wall_s) FROM runs").fetchone()[0] or 0.0
+    print(
+        f"  sum of run times {total / 60:.1f} min, i.e. {total / 60 / jobs:.1f} min on {jobs} workers "
+        "if perfectly shared"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--db", type=Path, default=Path("matrix.sqlite"))
+    parser.add_argument("--lateral", action="store_true", help="compare the sublane model's lateral resolutions")
+    args = parser.parse_args()
+    if args.lateral:
+        lateral(args.runs, args.jobs)
+    else:
+        matrix(args.runs, args.jobs, args.db)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,381 @@
+"""`mlca-sim report`: the paper's figures redrawn from a results database, each bar with its 95% confidence
+interval and the paper's value beside it, and report.md: paper value against measured value per figure, a verdict
+per claim of the paper with the test behind it, the mechanism behind MLCA's numbers and the cost the paper left
+out (travel time and speed of the AVs and of the other traffic).
+
+Reading the database is `load`; the numbers are pure functions of what it returns; drawing is matplotlib (Agg),
+with fixed metadata so that the same database gives byte-identical files."""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sim_check.controllers import SETUPS
+from sim_check.paper_results import (
+    CLAIMS,
+    COLLISION_CITE,
+    COLLISION_ORDER,
+    LANE_FIGURES,
+    MARKS,
+    PAPER_COLLISIONS,
+    Claim,
+    LaneFigure,
+)
+from sim_check.runner import STATES
+from sim_check.stats import Verdict, extreme_verdict, mean_ci, reduction_verdict
+
+Key = tuple[str, int]  # controller, AVs
+
+
+@dataclass
+class Group:
+    """The finished runs of one (controller, AVs): one value per run (sums over the run's AVs for counts, means
+    over its AVs for times and speeds)."""
+
+    seeds: list[int] = field(default_factory=list)
+    lc: dict[int, list[float]] = field(default_factory=lambda: {km: [] for km in MARKS})
+    collisions: list[float] = field(default_factory=list)
+    mingap: list[float] = field(default_factory=list)
+    travel_s: list[float] = field(default_factory=list)
+    speed_ms: list[float] = field(default_factory=list)
+    bg_speed_ms: list[float] = field(default_factory=list)
+    failed: int = 0
+    violations: int = 0
+    # per AV (mechanism, machines and "without" only)
+    needs: int = 0
+    moved: int = 0
+    open: int = 0
+    deferred: int = 0
+    need_s: float = 0.0
+    deferred_s: float = 0.0
+    state_s: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STATES, 0.0))
+    av_count: int = 0
+
+
+@dataclass
+class Data:
+    db: Path
+    groups: dict[Key, Group]
+
+    def values(self, controller: str, avs: int, metric: str, km: int = 20) -> list[float]:
+        g = self.groups.get((controller, avs))
+        if g is None:
+            return []
+        return g.lc[km] if metric == "lc" else g.collisions
+
+    def pooled(self, controller: str, metric: str) -> list[float]:
+        return [v for avs in (1, 3) for v in self.values(controller, avs, metric)]
+
+
+def load(db: Path) -> Data:
+    conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    groups: dict[Key, Group] = defaultdict(Group)
+    for controller, avs, status, violations in conn.execute(
+        "SELECT controller, avs, status, monitor_violations FROM runs ORDER BY controller, avs, seed"
+    ):
+        g = groups[(controller, avs)]
+        g.failed += status != "done"
+        g.violations += violations or 0
+    query = (
+        "SELECT r.controller, r.avs, r.seed, SUM(m.lc_5km), SUM(m.lc_10km), SUM(m.lc_15km), SUM(m.lc_20km),"
+        " SUM(m.collisions), SUM(m.mingap_contacts), AVG(m.travel_time_s), AVG(m.mean_speed_ms), r.bg_mean_speed_ms"
+        " FROM runs r JOIN av_metrics m USING (controller, avs, seed) WHERE r.status = 'done'"
+        " GROUP BY r.controller, r.avs, r.seed ORDER BY r.controller, r.avs, r.seed"
+    )
+    for controller, avs, seed, *lc, coll, mingap, travel, speed, bg in conn.execute(query):
+        g = groups[(controller, avs)]
+        g.seeds.append(seed)
+        for km, value in zip(MARKS, lc, strict=True):
+            g.lc[km].append(float(value))
+        g.collisions.append(float(coll))
+        g.mingap.append(float(mingap or 0))
+        for target, value in ((g.travel_s, travel), (g.speed_ms, speed), (g.bg_speed_ms, bg)):
+            if value is not None:
+                target.append(float(value))
+    states = ", ".join(f"SUM(m.{s.lower()}_s)" for s in STATES)
+    mechanism = (
+        "SELECT m.controller, m.avs, COUNT(*), SUM(m.needs), SUM(m.needs_moved), SUM(m.needs_open),"
+        " SUM(m.needs_deferred),"
+        f" SUM(m.need_s), SUM(m.deferred_s), {states} FROM av_metrics m JOIN runs r USING (controller, avs, seed)"
+        " WHERE r.status = 'done' AND m.needs IS NOT NULL GROUP BY m.controller, m.avs"
+    )
+    for controller, avs, count, needs, moved, still, deferred, need_s, deferred_s, *state_s in conn.execute(mechanism):
+        g = groups[(controller, avs)]
+        g.av_count, g.needs, g.moved, g.open, g.deferred = count, int(needs), int(moved), int(still), int(deferred)
+        g.need_s, g.deferred_s = float(need_s), float(deferred_s)
+        g.state_s = {s: float(v or 0.0) for s, v in zip(STATES, state_s, strict=True)}
+    conn.close()
+    return Data(db, dict(groups))
+
+
+def label(controller: str) -> str:
+    return SETUPS[controller].label if controller in SETUPS else controller
+
+
+Triple = tuple[float, float, float]
+
+
+def _scaled(m: Triple, factor: float) -> Triple:
+    return m[0] * factor, m[1] * factor, m[2] * factor
+
+
+def _fmt(m: Triple, digits: int = 2) -> str:
+    mean, lo, hi = m
+    return "-" if math.isnan(mean) else f"{mean:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
+
+
+# ---------------------------------------------------------------------------------------------------- figures
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    matplotlib.rcParams["svg.hashsalt"] = "mlca-verify"
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig: Any, out: Path, stem: str) -> list[Path]:
+    paths = [out / f"{stem}.png", out / f"{stem}.svg"]
+    fig.savefig(paths[0], dpi=110, metadata={"Software": None})
+    fig.savefig(paths[1], metadata={"Date": None, "Creator": None})
+    return paths
+
+
+COLORS = ("#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3", "#937860")
+
+
+def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
+    plt = _pyplot()
+    series = [(c, avs) for avs in (1, 3) for c in (*fig_spec.series, *fig_spec.extra)]
+    fig, ax = plt.subplots(figsize=(10, 4.6))
+    width = 0.8 / (len(series) * 2)
+    for k, (controller, avs) in enumerate(series):
+        xs = [i + (2 * k - len(series)) * width + width / 2 for i in range(len(MARKS))]
+        stats = [mean_ci(data.values(controller, avs, "lc", km)) for km in MARKS]
+        means = [s[0] for s in stats]
+        err = [[s[0] - s[1] for s in stats], [s[2] - s[0] for s in stats]]
+        name = f"{label(controller)} ({avs} AV{'s' if avs > 1 else ''})"
+        ax.bar(xs, means, width, color=COLORS[k % len(COLORS)], label=f"{name}, measured", yerr=err, capsize=2)
+        paper = fig_spec.paper.get((controller, avs))
+        if paper:
+            ax.bar([x + width for x in xs], paper, width, facecolor="none", edgecolor=COLORS[k % len(COLORS)],
+                   hatch="///", label=f"{name}, paper")  # fmt: skip
+    ax.set_xticks(range(len(MARKS)), [f"{km} km" for km in MARKS])
+    ax.set_xlabel("cumulative distance")
+    ax.set_ylabel("lane changes per run (sum over the AVs)")
+    ax.set_title(f"{fig_spec.title} (paper: {fig_spec.cite}); bars: mean of the runs, 95% CI")
+    ax.legend(fontsize=7, ncol=2, loc="upper left")
+    fig.tight_layout()
+    paths = _save(fig, out, fig_spec.key)
+    plt.close(fig)
+    return paths
+
+
+def collision_figure(data: Data, out: Path) -> list[Path]:
+    plt = _pyplot()
+    controllers = [c for c in COLLISION_ORDER if any((c, a) in data.groups for a in (1, 3))]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=False)
+    for ax, attr, title in ((axes[0], "collisions", "physical contact (mingap-factor 0)"),
+                            (axes[1], "mingap", "closer than minGap (SUMO's default criterion)")):  # fmt: skip
+        width = 0.26
+        for k, avs in enumerate((1, 3)):
+            stats = [mean_ci(getattr(data.groups[(c, avs)], attr)) if (c, avs) in data.groups else (0.0, 0.0, 0.0)
+                     for c in controllers]  # fmt: skip
+            per100 = [_scaled(s, 100.0) for s in stats]
+            xs = [i + (k - 1) * width for i in range(len(controllers))]
+            ax.bar(xs, [s[0] for s in per100], width, color=COLORS[k], label=f"{avs} AV{'s' if avs > 1 else ''}",
+                   yerr=[[s[0] - s[1] for s in per100], [s[2] - s[0] for s in per100]], capsize=2)  # fmt: skip
+        if attr == "collisions":
+            xs = [i + width for i, c in enumerate(controllers) if c in PAPER_COLLISIONS]
+            ax.bar(xs, [PAPER_COLLISIONS[c] for c in controllers if c in PAPER_COLLISIONS], width, facecolor="none",
+                   edgecolor="black", hatch="///", label=f"paper ({COLLISION_CITE})")  # fmt: skip
+        ax.set_xticks(range(len(controllers)), [label(c) for c in controllers], rotation=30, fontsize=8)
+        ax.set_ylabel("AV collisions per 100 runs")
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=8)
+    fig.suptitle("Collisions involving an AV per 100 runs (20 km); 95% CI")
+    fig.tight_layout()
+    paths = _save(fig, out, "fig5_collisions")
+    plt.close(fig)
+    return paths
+
+
+def cost_figure(data: Data, controllers: list[str], out: Path) -> list[Path]:
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    width = 0.38
+    for ax, attr, unit, title in ((axes[0], "travel_s", "s", "AV travel time"),
+                                  (axes[1], "bg_speed_ms", "km/h", "mean speed of the other traffic")):  # fmt: skip
+        scale = 3.6 if unit == "km/h" else 1.0
+        for k, avs in enumerate((1, 3)):
+            stats = [mean_ci(getattr(data.groups[(c, avs)], attr)) if (c, avs) in data.groups else (0.0, 0.0, 0.0)
+                     for c in controllers]  # fmt: skip
+            stats = [_scaled(s, scale) for s in stats]
+            xs = [i + (k - 0.5) * width for i in range(len(controllers))]
+            ax.bar(xs, [s[0] for s in stats], width, color=COLORS[k], label=f"{avs} AV{'s' if avs > 1 else ''}",
+                   yerr=[[s[0] - s[1] for s in stats], [s[2] - s[0] for s in stats]], capsize=2)  # fmt: skip
+        values = [
+            s for c in controllers for a in (1, 3) if (c, a) in data.groups for s in getattr(data.groups[(c, a)], attr)
+        ]
+        if values:
+            low, high = min(values) * scale, max(values) * scale
+            ax.set_ylim(low - 0.1 * (high - low + 1), high + 0.1 * (high - low + 1))
+        ax.set_xticks(range(len(controllers)), [label(c) for c in controllers], rotation=30, fontsize=8)
+        ax.set_ylabel(unit)
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=8)
+    fig.suptitle("The cost the paper left out (its Sec. V): mean of the runs, 95% CI")
+    fig.tight_layout()
+    paths = _save(fig, out, "fig6_cost")
+    plt.close(fig)
+    return paths
+
+
+# ---------------------------------------------------------------------------------------------------- report.md
+def claim_rows(data: Data, claim: Claim) -> list[tuple[str, Verdict]]:
+    """(scope, verdict) per evaluation of one claim."""
+    if claim.kind == "reduction":
+        if claim.metric == "collisions":
+            subject, baseline = data.pooled(claim.subject, "collisions"), data.pooled(claim.baseline, "collisions")
+            return [("1 and 3 AVs pooled", reduction_verdict(subject, baseline, claim.claimed))]
+        return [
+            (f"{avs} AV{'s' if avs > 1 else ''}, 20 km",
+             reduction_verdict(data.values(claim.subject, avs, "lc"), data.values(claim.baseline, avs, "lc"),
+                               claim.claimed))
+            for avs in claim.avs
+        ]  # fmt: skip
+    groups = {c: data.pooled(c, claim.metric) for c in COLLISION_ORDER if data.pooled(c, claim.metric)}
+    return [("1 and 3 AVs pooled", extreme_verdict(claim.subject, groups, lowest=claim.kind == "lowest"))]
+
+
+def _stand_ins() -> list[str]:
+    lines = ["| paper's name | controller | what runs |", "|---|---|---|"]
+    names = {"lc2013": "LC2013, LC2014", "sl2015": "LC2017, Continuous (sublane)", "continuous": "Continuous",
+             "idm-lc": "IDM/LC", "mobil": "MOBIL", "without": "without algorithm", "mlca-c": "MLCA",
+             "mlca_r-c": "(not in the paper) MLCA-R, the repair"}  # fmt: skip
+    for controller, name in names.items():
+        lines.append(f"| {name} | `{controller}` | {SETUPS[controller].stands_for} |")
+    return lines
+
+
+def markdown(data: Data, figures: list[Path]) -> str:
+    keys = sorted(data.groups)
+    runs = sum(len(g.seeds) for g in data.groups.values())
+    failed = sum(g.failed for g in data.groups.values())
+    violations = sum(g.violations for g in data.groups.values())
+    out = [
+        "# The paper's comparison, reproduced",
+        "",
+        f"From `{data.db.name}`: {runs} finished runs in {len(keys)} configurations (controller x AVs), "
+        f"{failed} failed runs, {violations} monitor violations. Lane changes are counted per run and summed over "
+        "the run's AVs; collisions are those involving an AV (SUMO's collision detection, junctions included). "
+        "Intervals are 95% bootstrap intervals of the mean over runs.",
+        "",
+        "## Which model stands for which name of the paper",
+        "",
+        "SUMO 1.28 ships the lane-change models LC2013, SL2015 and DK2008; it has no model named LC2014, LC2017 or "
+        "MOBIL.",
+        "",
+        *_stand_ins(),
+        "",
+        "## Claims",
+        "",
+        "Rule: a reduction claim is *reproduced* when the 95% interval of the measured reduction contains the "
+        "claimed one and a one-sided Mann-Whitney U test finds MLCA lower (p < 0.05); *not comparable* when the "
+        "baseline has no events, so no reduction is defined. A ranking claim is reproduced when the controller "
+        "ranks first and no other is significantly better (one-sided Mann-Whitney, p < 0.05).",
+        "",
+        "| claim | where | scope | verdict | measured | test |",
+        "|---|---|---|---|---|---|",
+    ]
+    for claim in CLAIMS:
+        for scope, v in claim_rows(data, claim):
+            out.append(f"| {claim.key}: {claim.text} | {claim.cite} | {scope} | **{v.verdict}** | {v.measured} | "
+                       f"{v.test} |")  # fmt: skip
+    for fig_spec in LANE_FIGURES:
+        out += ["", f"## {fig_spec.title} ({fig_spec.cite})", "", f"![{fig_spec.title}]({fig_spec.key}.png)", "",
+                "| controller | AVs | km | paper | measured mean [95% CI] | runs |",
+                "|---|---|---|---|---|---|"]  # fmt: skip
+        for avs in (1, 3):
+            for controller in (*fig_spec.series, *fig_spec.extra):
+                paper = fig_spec.paper.get((controller, avs))
+                for i, km in enumerate(MARKS):
+                    values = data.values(controller, avs, "lc", km)
+                    out.append(f"| {label(controller)} | {avs} | {km} | {paper[i] if paper else '-'} | "
+                               f"{_fmt(mean_ci(values))} | {len(values)} |")  # fmt: skip
+    out += ["", f"## Collisions ({COLLISION_CITE})", "", "![collisions](fig5_collisions.png)", "",
+            "| controller | AVs | paper (per 100 runs) | physical contact per 100 runs [95% CI] | "
+            "closer than minGap per 100 runs [95% CI] | runs |", "|---|---|---|---|---|---|"]  # fmt: skip
+    for controller in COLLISION_ORDER:
+        for avs in (1, 3):
+            g = data.groups.get((controller, avs))
+            if g is None:
+                continue
+            coll = _scaled(mean_ci(g.collisions), 100.0)
+            mingap = _scaled(mean_ci(g.mingap), 100.0)
+            out.append(f"| {label(controller)} | {avs} | {PAPER_COLLISIONS.get(controller, '-')} | "
+                       f"{_fmt(coll, 1)} | {_fmt(mingap, 1)} | {len(g.seeds)} |")  # fmt: skip
+    out += _mechanism(data)
+    out += _cost(data)
+    out += ["", "## Files", "", *[f"- `{p.name}`" for p in figures], ""]
+    return "\n".join(out)
+
+
+def _mechanism(data: Data) -> list[str]:
+    lines = ["", "## Mechanism: what the machines do with a need to change lane", "",
+             "Per AV: an *episode* is a stretch of steps in which N holds (a lane change is wanted). *Moved*: the "
+             "AV changed lane during it. *Deferred*: a safe gap towards the wanted side (L or R) was seen and not "
+             "taken. *Never resolved*: the episode was still open when the AV reached the end of the road. Times "
+             "are per AV, in seconds; state times only for the generated machines.", "",
+             "| controller | AVs | AV runs | episodes | moved | deferred | never resolved | N held s/AV | "
+             "gap passed up s/AV | " + " | ".join(f"{s} s/AV" for s in STATES) + " |",
+             "|---|---|---|---|---|---|---|---|---|" + "---|" * len(STATES)]  # fmt: skip
+    for (controller, avs), g in sorted(data.groups.items()):
+        if not g.av_count:
+            continue
+        n = g.av_count
+        lines.append(
+            f"| {label(controller)} | {avs} | {n} | {g.needs} | {g.moved} ({g.moved / max(g.needs, 1):.0%}) | "
+            f"{g.deferred} ({g.deferred / max(g.needs, 1):.0%}) | {g.open} ({g.open / max(g.needs, 1):.0%}) | "
+            f"{g.need_s / n:.1f} | {g.deferred_s / n:.1f} | "
+            + " | ".join(f"{g.state_s[s] / n:.1f}" if SETUPS[controller].kind == "fsm" else "-" for s in STATES)
+            + " |"
+        )
+    return lines
+
+
+def _cost(data: Data) -> list[str]:
+    lines = ["", "## Cost: travel time and speed (the paper's Sec. V leaves these out)", "",
+             "![cost](fig6_cost.png)", "",
+             "| controller | AVs | AV travel time s | AV mean speed km/h | other traffic mean speed km/h |",
+             "|---|---|---|---|---|"]  # fmt: skip
+    for controller in COLLISION_ORDER:
+        for avs in (1, 3):
+            g = data.groups.get((controller, avs))
+            if g is None:
+                continue
+            speed = _scaled(mean_ci(g.speed_ms), 3.6)
+            bg = _scaled(mean_ci(g.bg_speed_ms), 3.6)
+            lines.append(f"| {label(controller)} | {avs} | {_fmt(mean_ci(g.travel_s), 1)} | {_fmt(speed, 2)} | "
+                         f"{_fmt(bg, 2)} |")  # fmt: skip
+    return lines
+
+
+def write_report(db: Path, out: Path) -> list[Path]:
+    """Write the figures (PNG and SVG) and report.md into `out`; returns the files written."""
+    data = load(db)
+    out.mkdir(parents=True, exist_ok=True)
+    figures: list[Path] = []
+    for fig_spec in LANE_FIGURES:
+        figures += lane_figure(data, fig_spec, out)
+    figures += collision_figure(data, out)
+    figures += cost_figure(data, [c for c in COLLISION_ORDER if any((c, a) in data.groups for a in (1, 3))], out)
+    report = out / "report.md"
+    report.write_text(markdown(data, figures), encoding="utf-8")
+    return [*figures, report]

@@ -1,0 +1,146 @@
+"""The paper's comparison for real in SUMO: sensing sides, every controller of the matrix on a short scenario, and
+the report produced from that small sweep with its tables checked against the database."""
+
+from __future__ import annotations
+
+import re
+import sqlite3
+from pathlib import Path
+
+import pytest
+
+from sim_check.cli import main
+from sim_check.controllers import PAPER_MATRIX, SETUPS
+from sim_check.paper_results import CLAIMS, MARKS
+from sim_check.report import label, write_report
+from sim_check.runner import sumo_args
+from sim_check.scenario import build, load_scenario
+from sim_check.sensing import _gap_ok, neighbours
+
+ROOT = Path(__file__).parent.parent
+SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
+
+
+def _scene(tmp_path: Path, cars: list[tuple[str, int, float]]) -> Path:
+    """A route file on the built-in highway's `hw` edge: every vehicle departs at 0 s at 20 m/s."""
+    lines = ["<routes>", '  <vType id="car" vClass="passenger" speedDev="0"/>', '  <route id="r" edges="hw"/>']
+    for vid, lane, pos in cars:
+        lines.append(f'  <vehicle id="{vid}" type="car" route="r" depart="0" departLane="{lane}" '
+                     f'departPos="{pos}" departSpeed="20"/>')  # fmt: skip
+    path = tmp_path / "scene.rou.xml"
+    path.write_text("\n".join([*lines, "</routes>"]) + "\n")
+    return path
+
+
+def test_sensing_reads_the_side_it_names_and_rejects_a_car_alongside(tmp_path: Path) -> None:
+    import libsumo
+
+    scenario = load_scenario(SHORT)
+    built = build(scenario, 0, tmp_path)
+    # the AV in lane 2; a car beside it on the left (lane 3), its front 1 m behind the AV's; the right (lane 1)
+    # has a leader 60 m ahead
+    routes = _scene(tmp_path, [("av0", 2, 300.0), ("beside", 3, 299.0), ("ahead", 1, 360.0)])
+    libsumo.start(sumo_args(scenario, built.net, routes, 0))
+    try:
+        libsumo.simulationStep()
+        assert [vid for vid, _ in neighbours(libsumo, "av0", -1, leaders=True)] == ["ahead"]
+        assert neighbours(libsumo, "av0", -1, leaders=False) == ()
+        assert neighbours(libsumo, "av0", +1, leaders=True) == ()
+        ((vid, gap),) = neighbours(libsumo, "av0", +1, leaders=False)  # the car beside: a follower, overlapping
+        assert vid == "beside" and gap < 0
+        assert not _gap_ok(libsumo, "av0", +1)
+        assert _gap_ok(libsumo, "av0", -1)
+    finally:
+        libsumo.close()
+
+
+@pytest.fixture(scope="module")
+def matrix_db(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    db = tmp_path_factory.mktemp("matrix") / "matrix.sqlite"
+    argv = ["sweep", "--matrix", "paper", "--runs", "2", "--jobs", "2", "--db", str(db), "--scenario", str(SHORT)]
+    assert main(argv) == 0
+    return db
+
+
+def _query(db: Path, sql: str) -> list[tuple[object, ...]]:
+    with sqlite3.connect(db) as conn:
+        return conn.execute(sql).fetchall()
+
+
+@pytest.mark.slow
+def test_every_controller_of_the_paper_drives_the_short_scenario(matrix_db: Path) -> None:
+    runs = _query(matrix_db, "SELECT controller, avs, COUNT(*), SUM(status = 'done'), SUM(monitor_violations) "
+                             "FROM runs GROUP BY controller, avs")  # fmt: skip
+    assert sorted(runs) == sorted((c, a, 2, 2, 0) for c in PAPER_MATRIX for a in (1, 3))
+    # every AV left the ramp (its acceleration lane ends, so at least one lane change) and arrived
+    avs = _query(
+        matrix_db, "SELECT controller, MIN(lc_5km), MIN(arrived), COUNT(*) FROM av_metrics GROUP BY controller"
+    )
+    assert sorted(c for c, *_ in avs) == sorted(PAPER_MATRIX)
+    assert all(changes >= 1 and arrived == 1 and count == 2 * (1 + 3) for _, changes, arrived, count in avs)
+    # the mechanism is recorded for the machines and "without", not for the models that do not sense
+    sensed = _query(matrix_db, "SELECT DISTINCT controller FROM av_metrics WHERE needs IS NOT NULL")
+    assert sorted(c for (c,) in sensed) == sorted(c for c in PAPER_MATRIX if SETUPS[c].kind in ("fsm", "without"))
+    # each controller drove differently from SUMO's default model on at least one run
+    shas = dict(_query(matrix_db, "SELECT controller, GROUP_CONCAT(trajectory_sha256) FROM "
+                                  "(SELECT * FROM runs ORDER BY avs, seed) GROUP BY controller"))  # fmt: skip
+    assert len(set(shas.values())) == len(PAPER_MATRIX)
+
+
+def _table(report: str, heading: str) -> list[list[str]]:
+    section = report.split(f"## {heading}", 1)[1].split("\n## ", 1)[0]
+    header = ("| controller", "| claim")
+    rows = [line for line in section.splitlines() if line.startswith("| ") and not line.startswith(header)]
+    return [[cell.strip() for cell in row.strip("|").split("|")] for row in rows]
+
+
+@pytest.mark.slow
+def test_report_tables_match_the_database(matrix_db: Path, tmp_path: Path) -> None:
+    written = write_report(matrix_db, tmp_path / "a")
+    again = write_report(matrix_db, tmp_path / "b")
+    assert [p.read_bytes() for p in written] == [p.read_bytes() for p in again]  # byte-identical
+    names = {p.name for p in written}
+    for stem in ("fig2_lc2017_mobil", "fig3_idm_continuous", "fig4_mlca_without", "fig5_collisions", "fig6_cost"):
+        assert {f"{stem}.png", f"{stem}.svg"} <= names
+        assert (tmp_path / "a" / f"{stem}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert "<svg" in (tmp_path / "a" / f"{stem}.svg").read_text()
+    report = (tmp_path / "a" / "report.md").read_text()
+    by_label = {label(c): c for c in SETUPS}
+    checked = 0
+    for heading in ("Lane changes: LC2017", "Lane changes: IDM/LC", "Lane changes: MLCA"):
+        for name, avs, km, _paper, measured, runs in _table(report, heading):
+            mean = float(measured.split()[0])
+            (expected,) = _query(matrix_db, f"SELECT AVG(s) FROM (SELECT SUM(m.lc_{km}km) AS s FROM av_metrics m "
+                                            f"WHERE m.controller = '{by_label[name]}' AND m.avs = {avs} "
+                                            "GROUP BY m.seed)")[0]  # fmt: skip
+            assert mean == pytest.approx(expected, abs=0.005) and runs == "2"
+            checked += 1
+    assert checked == len(MARKS) * 2 * 8  # 8 controllers across the three lane-change figures
+    for name, avs, _paper, contact, mingap, _runs in _table(report, "Collisions"):
+        controller = by_label[name]
+        (coll, close) = _query(matrix_db, f"SELECT 100.0 * SUM(collisions) / 2, 100.0 * SUM(mingap_contacts) / 2 "
+                                          f"FROM av_metrics WHERE controller = '{controller}' AND avs = {avs}")[0]  # fmt: skip
+        assert float(contact.split()[0]) == pytest.approx(coll, abs=0.05)
+        assert float(mingap.split()[0]) == pytest.approx(close, abs=0.05)
+    for name, avs, av_runs, episodes, _moved, _deferred, never, *_ in _table(report, "Mechanism"):
+        controller = by_label[name]
+        (n, needs, still) = _query(matrix_db, "SELECT COUNT(*), SUM(needs), SUM(needs_open) FROM av_metrics "
+                                              f"WHERE controller = '{controller}' AND avs = {avs}")[0]  # fmt: skip
+        assert (int(av_runs), int(episodes), int(never.split()[0])) == (n, needs, still)
+    claims = _table(report, "Claims")
+    assert len(claims) == sum(len(c.avs) if c.kind == "reduction" and c.metric == "lc" else 1 for c in CLAIMS)
+    assert all(re.fullmatch(r"\*\*(reproduced|not reproduced|not comparable)\*\*", row[3]) for row in claims)
+
+
+def test_report_and_matrix_usage_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["report", "--db", str(tmp_path / "none.sqlite"), "--out", str(tmp_path)]) == 2
+    assert "no such results database" in capsys.readouterr().err
+    argv = ["sweep", "--matrix", "paper", "--controller", "mlca-c", "--db", str(tmp_path / "x.sqlite")]
+    assert main(argv) == 2
+    assert "either --matrix or --controller" in capsys.readouterr().err
+    old = tmp_path / "old.sqlite"
+    with sqlite3.connect(old) as conn:
+        conn.execute("CREATE TABLE runs (controller TEXT, avs INTEGER, seed INTEGER, status TEXT)")
+    assert main(["sweep", "--controller", "mlca-c", "--runs", "1", "--db", str(old)]) == 2
+    err = capsys.readouterr().err
+    assert "table runs has other columns" in err and "use a new database file" in err
