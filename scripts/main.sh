@@ -4,8 +4,9 @@
 #   2. generate the Python and C99 code of the two deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
 #      the Cortex-M4 cross build, sanitizers);
-#   4. run both generated C controllers closed loop in SUMO on a short version of the paper's scenario, one and
-#      three AVs, two seeds each (out/sim.sqlite; runs already there are kept);
+#   4. run the paper's comparison closed loop in SUMO on a short version of its scenario: both generated C
+#      controllers and every comparison model, one and three AVs, two seeds each (out/sim.sqlite; runs already
+#      there are kept), and draw it beside the paper's figures (out/comparison/report.md);
 #   5. package it all as safety-case evidence for the repaired controller (out/evidence/index.html).
 # Reports go to out/.
 set -euo pipefail
@@ -15,7 +16,9 @@ mkdir -p out
 .venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/paper/*.toml --json out/check.json
 .venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml
 .venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml --json out/conform.json
-.venv/bin/mlca-sim sweep --controller mlca-c,mlca_r-c --avs 1,3 --runs 2 --jobs 2 \
+.venv/bin/mlca-sim sweep --matrix paper --avs 1,3 --runs 2 --jobs 2 \
     --scenario sim_check/scenarios/short.toml --db out/sim.sqlite --resume
+.venv/bin/mlca-sim report --db out/sim.sqlite --out out/comparison
 .venv/bin/mlca-verify evidence spec/mlca_r.toml --db out/sim.sqlite --out out/evidence
-echo "main: reports in out/check.json, out/conform.json, out/sim.sqlite and out/evidence/ (open out/evidence/index.html)"
+echo "main: reports in out/check.json, out/conform.json, out/sim.sqlite, out/comparison/report.md and out/evidence/" \
+    "(open out/evidence/index.html)"

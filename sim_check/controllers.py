@@ -48,12 +48,15 @@ SETUPS = {
         Setup("mlca_r-c", "fsm", "MLCA-R", "the repaired machine (docs/findings.md F1), generated C"),
         Setup("lc2013", "sumo", "LC2013", "LC2013 and LC2014: SUMO's LC2013 (Erdmann's 2014 description of SUMO's "
               "lane-changing model is LC2013; SUMO has no model named LC2014)"),
-        Setup("sl2015", "sumo", "SL2015", "LC2017 and Continuous (sublane): SUMO's SL2015 sublane model, the newest "
-              "SUMO lane-change model, which weighs several leaders and followers across sublanes as the paper's "
-              "LC2017 description says; SUMO has no model named LC2017",
+        Setup("sl2015", "sumo", "LC2017 (SL2015)",
+              "LC2017 and Continuous (sublane): SUMO's SL2015 sublane model, its newest lane-change model, which "
+              "weighs several leaders and followers across sublanes as the paper's LC2017 description says (SUMO has "
+              "no model named LC2017); the lateral resolution is a simulation option, so every vehicle drives SL2015",
               av_type='laneChangeModel="SL2015"', options=("--lateral-resolution", str(SUBLANE_RESOLUTION_M))),
-        Setup("continuous", "sumo", "Continuous", "Continuous: LC2013 with SUMO's continuous (non-instant) lane "
-              "changing, --lanechange.duration 3", options=("--lanechange.duration", "3")),
+        Setup("continuous", "sumo", "Continuous",
+              "Continuous: LC2013 with SUMO's continuous (non-instant, 3 s) lane changing, --lanechange.duration 3; "
+              "a simulation option, so every vehicle changes lanes this way",
+              options=("--lanechange.duration", "3")),
         Setup("idm-lc", "sumo", "IDM/LC", "IDM/LC: IDM car following with SUMO's LC2013 for the AV",
               av_type='carFollowModel="IDM"'),
         Setup("dk2008", "sumo", "DK2008", "SUMO's oldest shipped lane-change model, for reference",

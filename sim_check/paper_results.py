@@ -33,6 +33,7 @@ LANE_FIGURES = (
         "fig3_idm_continuous", "Fig. 3 (Sec. IV-E)", "Lane changes: IDM/LC and Continuous", ("idm-lc", "continuous"),
         {("idm-lc", 1): (1, 2, 4, 6), ("continuous", 1): (0, 1, 3, 4), ("idm-lc", 3): (3, 7, 8, 13),
          ("continuous", 3): (3, 6, 9, 12)},
+        extra=("sl2015",),  # the other continuous model: SL2015's sublane lane changes
     ),
     LaneFigure(
         "fig4_mlca_without", "Fig. 4 (Sec. IV-E)", "Lane changes: MLCA and without algorithm", ("mlca-c", "without"),

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import sqlite3
 from collections import defaultdict
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -70,6 +71,17 @@ class Data:
 
     def pooled(self, controller: str, metric: str) -> list[float]:
         return [v for avs in (1, 3) for v in self.values(controller, avs, metric)]
+
+    def present(self) -> list[str]:
+        """The controllers of the paper's collision figure (and ours) that have runs, in its order."""
+        return [c for c in COLLISION_ORDER if any((c, a) in self.groups for a in (1, 3))]
+
+    def ordered(self) -> Iterator[tuple[str, int, Group]]:
+        """(controller, AVs, group) in the collision figure's order, 1 AV before 3."""
+        for controller in self.present():
+            for avs in (1, 3):
+                if (controller, avs) in self.groups:
+                    yield controller, avs, self.groups[(controller, avs)]
 
 
 def load(db: Path) -> Data:
@@ -153,7 +165,7 @@ COLORS = ("#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3", "#937860")
 def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
     plt = _pyplot()
     series = [(c, avs) for avs in (1, 3) for c in (*fig_spec.series, *fig_spec.extra)]
-    fig, ax = plt.subplots(figsize=(10, 4.6))
+    fig, ax = plt.subplots(figsize=(12.5, 4.8))
     width = 0.8 / (len(series) * 2)
     for k, (controller, avs) in enumerate(series):
         xs = [i + (2 * k - len(series)) * width + width / 2 for i in range(len(MARKS))]
@@ -170,7 +182,7 @@ def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
     ax.set_xlabel("cumulative distance")
     ax.set_ylabel("lane changes per run (sum over the AVs)")
     ax.set_title(f"{fig_spec.title} (paper: {fig_spec.cite}); bars: mean of the runs, 95% CI")
-    ax.legend(fontsize=7, ncol=2, loc="upper left")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     paths = _save(fig, out, fig_spec.key)
     plt.close(fig)
@@ -179,7 +191,7 @@ def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
 
 def collision_figure(data: Data, out: Path) -> list[Path]:
     plt = _pyplot()
-    controllers = [c for c in COLLISION_ORDER if any((c, a) in data.groups for a in (1, 3))]
+    controllers = data.present()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=False)
     for ax, attr, title in ((axes[0], "collisions", "physical contact (mingap-factor 0)"),
                             (axes[1], "mingap", "closer than minGap (SUMO's default criterion)")):  # fmt: skip
@@ -299,7 +311,7 @@ def markdown(data: Data, figures: list[Path]) -> str:
             out.append(f"| {claim.key}: {claim.text} | {claim.cite} | {scope} | **{v.verdict}** | {v.measured} | "
                        f"{v.test} |")  # fmt: skip
     for fig_spec in LANE_FIGURES:
-        out += ["", f"## {fig_spec.title} ({fig_spec.cite})", "", f"![{fig_spec.title}]({fig_spec.key}.png)", "",
+        out += ["", f"## {fig_spec.title} ({fig_spec.cite})", "", f"![{fig_spec.title}]({fig_spec.key}.svg)", "",
                 "| controller | AVs | km | paper | measured mean [95% CI] | runs |",
                 "|---|---|---|---|---|---|"]  # fmt: skip
         for avs in (1, 3):
@@ -309,18 +321,14 @@ def markdown(data: Data, figures: list[Path]) -> str:
                     values = data.values(controller, avs, "lc", km)
                     out.append(f"| {label(controller)} | {avs} | {km} | {paper[i] if paper else '-'} | "
                                f"{_fmt(mean_ci(values))} | {len(values)} |")  # fmt: skip
-    out += ["", f"## Collisions ({COLLISION_CITE})", "", "![collisions](fig5_collisions.png)", "",
+    out += ["", f"## Collisions ({COLLISION_CITE})", "", "![collisions](fig5_collisions.svg)", "",
             "| controller | AVs | paper (per 100 runs) | physical contact per 100 runs [95% CI] | "
             "closer than minGap per 100 runs [95% CI] | runs |", "|---|---|---|---|---|---|"]  # fmt: skip
-    for controller in COLLISION_ORDER:
-        for avs in (1, 3):
-            g = data.groups.get((controller, avs))
-            if g is None:
-                continue
-            coll = _scaled(mean_ci(g.collisions), 100.0)
-            mingap = _scaled(mean_ci(g.mingap), 100.0)
-            out.append(f"| {label(controller)} | {avs} | {PAPER_COLLISIONS.get(controller, '-')} | "
-                       f"{_fmt(coll, 1)} | {_fmt(mingap, 1)} | {len(g.seeds)} |")  # fmt: skip
+    for controller, avs, g in data.ordered():
+        coll = _scaled(mean_ci(g.collisions), 100.0)
+        mingap = _scaled(mean_ci(g.mingap), 100.0)
+        out.append(f"| {label(controller)} | {avs} | {PAPER_COLLISIONS.get(controller, '-')} | "
+                   f"{_fmt(coll, 1)} | {_fmt(mingap, 1)} | {len(g.seeds)} |")  # fmt: skip
     out += _mechanism(data)
     out += _cost(data)
     out += ["", "## Files", "", *[f"- `{p.name}`" for p in figures], ""]
@@ -352,18 +360,14 @@ def _mechanism(data: Data) -> list[str]:
 
 def _cost(data: Data) -> list[str]:
     lines = ["", "## Cost: travel time and speed (the paper's Sec. V leaves these out)", "",
-             "![cost](fig6_cost.png)", "",
+             "![cost](fig6_cost.svg)", "",
              "| controller | AVs | AV travel time s | AV mean speed km/h | other traffic mean speed km/h |",
              "|---|---|---|---|---|"]  # fmt: skip
-    for controller in COLLISION_ORDER:
-        for avs in (1, 3):
-            g = data.groups.get((controller, avs))
-            if g is None:
-                continue
-            speed = _scaled(mean_ci(g.speed_ms), 3.6)
-            bg = _scaled(mean_ci(g.bg_speed_ms), 3.6)
-            lines.append(f"| {label(controller)} | {avs} | {_fmt(mean_ci(g.travel_s), 1)} | {_fmt(speed, 2)} | "
-                         f"{_fmt(bg, 2)} |")  # fmt: skip
+    for controller, avs, g in data.ordered():
+        speed = _scaled(mean_ci(g.speed_ms), 3.6)
+        bg = _scaled(mean_ci(g.bg_speed_ms), 3.6)
+        lines.append(f"| {label(controller)} | {avs} | {_fmt(mean_ci(g.travel_s), 1)} | {_fmt(speed, 2)} | "
+                     f"{_fmt(bg, 2)} |")  # fmt: skip
     return lines
 
 
@@ -375,7 +379,7 @@ def write_report(db: Path, out: Path) -> list[Path]:
     for fig_spec in LANE_FIGURES:
         figures += lane_figure(data, fig_spec, out)
     figures += collision_figure(data, out)
-    figures += cost_figure(data, [c for c in COLLISION_ORDER if any((c, a) in data.groups for a in (1, 3))], out)
+    figures += cost_figure(data, data.present(), out)
     report = out / "report.md"
     report.write_text(markdown(data, figures), encoding="utf-8")
     return [*figures, report]

@@ -91,8 +91,9 @@ def _claimed(claims: list[Claim], av: str, edge: str, lane: int, pos: float) -> 
     return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
 
 
-def _slow(sumo: Any, vid: str, gap: float, allowed: float) -> bool:
-    return gap < LOOKAHEAD_M and sumo.vehicle.getSpeed(vid) < SLOWER * allowed
+def _slow(sumo: Any, vid: str, gap: float, av: str) -> bool:
+    """A slow vehicle `gap` metres ahead: within LOOKAHEAD_M and below SLOWER times the AV's allowed speed."""
+    return gap < LOOKAHEAD_M and sumo.vehicle.getSpeed(vid) < SLOWER * sumo.vehicle.getAllowedSpeed(av)
 
 
 def sense(
@@ -108,14 +109,13 @@ def sense(
     wanted = wanted_lane(edge, target, lanes)
     if wanted is None:
         return None
-    allowed = sumo.vehicle.getAllowedSpeed(av)
     direction = (wanted > lane) - (wanted < lane)
-    if direction == 0 and leader is not None and _slow(sumo, leader[0], leader[1], allowed):
+    if direction == 0 and leader is not None and _slow(sumo, leader[0], leader[1], av):
         direction = 1 if lane + 1 < lanes else -1
     elif (  # back towards the wanted lane, unless still overtaking there
         direction != 0
         and edge != "acc"
-        and any(_slow(sumo, vid, gap, allowed) for vid, gap in neighbours(sumo, av, direction, leaders=True))
+        and any(_slow(sumo, vid, gap, av) for vid, gap in neighbours(sumo, av, direction, leaders=True))
     ):
         direction = 0
     ends = edge == "acc" and lane == 0

@@ -11,9 +11,9 @@ import pytest
 
 from sim_check.cli import main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
-from sim_check.paper_results import CLAIMS, MARKS
+from sim_check.paper_results import CLAIMS, LANE_FIGURES, MARKS
 from sim_check.report import label, write_report
-from sim_check.runner import sumo_args
+from sim_check.runner import run_once, sumo_args
 from sim_check.scenario import build, load_scenario
 from sim_check.sensing import _gap_ok, neighbours
 
@@ -115,7 +115,7 @@ def test_report_tables_match_the_database(matrix_db: Path, tmp_path: Path) -> No
                                             "GROUP BY m.seed)")[0]  # fmt: skip
             assert mean == pytest.approx(expected, abs=0.005) and runs == "2"
             checked += 1
-    assert checked == len(MARKS) * 2 * 8  # 8 controllers across the three lane-change figures
+    assert checked == len(MARKS) * 2 * sum(len(f.series) + len(f.extra) for f in LANE_FIGURES)
     for name, avs, _paper, contact, mingap, _runs in _table(report, "Collisions"):
         controller = by_label[name]
         (coll, close) = _query(matrix_db, f"SELECT 100.0 * SUM(collisions) / 2, 100.0 * SUM(mingap_contacts) / 2 "
@@ -144,3 +144,19 @@ def test_report_and_matrix_usage_errors(tmp_path: Path, capsys: pytest.CaptureFi
     assert main(["sweep", "--controller", "mlca-c", "--runs", "1", "--db", str(old)]) == 2
     err = capsys.readouterr().err
     assert "table runs has other columns" in err and "use a new database file" in err
+
+
+def test_a_models_vehicle_type_and_options_reach_sumo(tmp_path: Path) -> None:
+    scenario = load_scenario(SHORT)
+    built = build(scenario, 0, tmp_path, SETUPS["idm-lc"].av_type)
+    (av_type,) = [line for line in built.routes.read_text().splitlines() if '<vType id="av"' in line]
+    assert 'carFollowModel="IDM"' in av_type
+    args = sumo_args(scenario, built.net, built.routes, 0, SETUPS["sl2015"].options)
+    assert args[-2:] == ["--lateral-resolution", "3.2"]
+
+
+@pytest.mark.slow
+def test_dk2008_drives_the_short_scenario(tmp_path: Path) -> None:
+    result = run_once(load_scenario(SHORT).with_avs(3), "dk2008", 1, tmp_path)
+    assert result.status == "done"
+    assert all(m.row()["arrived"] and m.row()["lc_5km"] >= 1 for m in result.metrics)

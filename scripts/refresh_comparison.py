@@ -1,0 +1,45 @@
+"""Refresh docs/comparison/ from a results database of the full matrix
+(`mlca-sim sweep --matrix paper --runs 100 --db FILE`): the report and its SVG figures, and the database's rows
+as CSV (sorted, so the same runs give the same files), from which tests/test_docs.py rebuilds the database and
+checks that the committed report is what `mlca-sim report` makes of it.
+
+Usage: .venv/bin/python scripts/refresh_comparison.py matrix.sqlite
+"""
+
+from __future__ import annotations
+
+import csv
+import sqlite3
+import sys
+from pathlib import Path
+
+from sim_check.report import write_report
+
+DOCS = Path(__file__).resolve().parent.parent / "docs" / "comparison"
+TABLES = ("runs", "av_metrics", "violations")
+
+
+def export(db: Path, out: Path) -> None:
+    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
+        for table in TABLES:
+            cursor = conn.execute(f"SELECT * FROM {table} ORDER BY 1, 2, 3, 4")
+            with (out / f"{table}.csv").open("w", newline="", encoding="utf-8") as f:
+                writer = csv.writer(f, lineterminator="\n")
+                writer.writerow(d[0] for d in cursor.description)
+                writer.writerows(cursor)
+
+
+def main() -> None:
+    db = Path(sys.argv[1])
+    DOCS.mkdir(parents=True, exist_ok=True)
+    for old in DOCS.glob("*.svg"):
+        old.unlink()
+    for path in write_report(db, DOCS):
+        if path.suffix == ".png":  # the SVGs are the committed figures; the PNGs stay out of the repository
+            path.unlink()
+    export(db, DOCS)
+    print(f"refreshed {DOCS}")
+
+
+if __name__ == "__main__":
+    main()
