@@ -75,6 +75,8 @@ class Verdict:
 def reduction_verdict(subject: Sequence[float], baseline: Sequence[float], claimed: float) -> Verdict:
     """Reproduced when the 95% interval of the measured reduction holds the claimed one and the one-sided
     Mann-Whitney test finds the subject smaller (p < 0.05); not comparable when the baseline never has the event."""
+    if not len(subject) or not len(baseline):
+        return Verdict("not comparable", "no runs to compare", "")
     r, lo, hi = reduction_ci(subject, baseline)
     t = mann_whitney_less(subject, baseline)
     test = f"Mann-Whitney U = {t.u:.0f}, one-sided p = {_p(t.p)}, rank-biserial r = {t.effect:+.2f}"
@@ -88,12 +90,15 @@ def reduction_verdict(subject: Sequence[float], baseline: Sequence[float], claim
 
 
 def extreme_verdict(subject: str, groups: Mapping[str, Sequence[float]], lowest: bool) -> Verdict:
-    """Reproduced when the subject's mean is the lowest (highest) and no other group's is significantly lower
-    (higher) by a one-sided Mann-Whitney test; not comparable when every group's mean is zero."""
+    """Reproduced when the subject's mean is the lowest (highest), shared with no other group, and no other
+    group's is significantly lower (higher) by a one-sided Mann-Whitney test; not comparable when every group's
+    mean is zero. A tie for first place does not make the subject the lowest (highest)."""
     means = {name: float(np.mean(v)) for name, v in groups.items() if len(v)}
     if subject not in means or not any(means.values()):
         return Verdict("not comparable", "no events in any group", "")
-    order = sorted(means, key=lambda n: means[n], reverse=not lowest)
+    sign = 1.0 if lowest else -1.0
+    order = sorted(means, key=lambda n: (sign * means[n], n != subject, n))
+    ties = sorted(n for n in means if n != subject and means[n] == means[subject])
     rivals = []
     mine = groups[subject]
     for name, values in groups.items():
@@ -102,11 +107,14 @@ def extreme_verdict(subject: str, groups: Mapping[str, Sequence[float]], lowest:
         t = mann_whitney_less(values, mine) if lowest else mann_whitney_less(mine, values)
         rivals.append((t.p, name))
     beaten = [name for p, name in rivals if p < ALPHA]
-    rank = order.index(subject) + 1
-    measured = f"rank {rank} of {len(order)} (mean {means[subject]:.2f}; {order[0]} first at {means[order[0]]:.2f})"
+    rank = 1 + sum(sign * means[n] < sign * means[subject] for n in means)
+    measured = f"rank {rank} of {len(order)} (mean {means[subject]:.2f} per run"
+    measured += f"; {order[0]} first at {means[order[0]]:.2f})" if rank > 1 else ")"
+    if ties:
+        measured += f"; tied with {', '.join(ties)}"
     worst_p = min(rivals)[0] if rivals else float("nan")
     test = f"one-sided Mann-Whitney against each other controller: smallest p = {_p(worst_p)}"
-    if rank == 1 and not beaten:
+    if rank == 1 and not beaten and not ties:
         return Verdict("reproduced", measured, test)
     if beaten:
         measured += f"; significantly {'lower' if lowest else 'higher'}: {', '.join(sorted(beaten))}"

@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import csv
+import re
+from pathlib import Path
+
 import pytest
 
 from scripts.refresh_docs import BLOCK, DOCS, ROOT, run
+from sim_check import db
+from sim_check.report import write_report
 
 BLOCKS = [
     (doc.name, m.group("args"), m.group("body"))
@@ -22,3 +28,46 @@ def test_docs_have_command_blocks() -> None:
 def test_block_matches_output(doc: str, args: str, body: str, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(ROOT)
     assert run(args) == body, f"{doc} is stale: run .venv/bin/python scripts/refresh_docs.py"
+
+
+COMPARISON = ROOT / "docs" / "comparison"
+
+
+def _rebuild(db_path: Path) -> None:
+    """The committed CSV rows back into a results database of this version's schema."""
+    conn = db.connect(db_path)
+    with conn:
+        for table in ("runs", "av_metrics", "violations"):
+            types = {name: kind for _, name, kind, *_ in conn.execute(f"PRAGMA table_info({table})")}
+            with (COMPARISON / f"{table}.csv").open(newline="", encoding="utf-8") as f:
+                reader = csv.reader(f)
+                header = next(reader)
+                cast = [CASTS[types[name]] for name in header]
+                rows = [[c(v) for c, v in zip(cast, row, strict=True)] for row in reader]
+            conn.executemany(f"INSERT INTO {table} VALUES ({', '.join('?' for _ in header)})", rows)
+    conn.close()
+
+
+CASTS = {
+    "TEXT": str,
+    "INTEGER": lambda v: None if v == "" else int(v),
+    "REAL": lambda v: None if v == "" else float(v),
+}
+
+
+@pytest.mark.slow
+def test_committed_comparison_report_is_what_the_committed_rows_give(tmp_path: Path) -> None:
+    _rebuild(tmp_path / "matrix.sqlite")
+    write_report(tmp_path / "matrix.sqlite", tmp_path / "out")
+    committed = (COMPARISON / "report.md").read_text(encoding="utf-8")
+    assert (tmp_path / "out" / "report.md").read_text(encoding="utf-8") == committed, (
+        "docs/comparison is stale: run .venv/bin/python scripts/refresh_comparison.py on the matrix database"
+    )
+
+
+def test_readme_claims_table_is_the_reports() -> None:
+    def claims(text: str) -> list[str]:
+        return [line for line in text.splitlines() if re.match(r"\| C\d[ab]?: ", line)]
+
+    report = claims((COMPARISON / "report.md").read_text(encoding="utf-8"))
+    assert report and claims((ROOT / "README.md").read_text(encoding="utf-8")) == report

@@ -55,3 +55,10 @@ def test_lowest_and_highest() -> None:
     lost = extreme_verdict("c", groups, lowest=True)
     assert lost.verdict == "not reproduced" and "a" in lost.measured
     assert extreme_verdict("a", {"a": [0.0], "b": [0.0]}, lowest=True).verdict == "not comparable"
+    tied = extreme_verdict("a", {**groups, "d": [0.0] * 50}, lowest=True)
+    assert tied.verdict == "not reproduced" and "rank 1 of 4" in tied.measured and "tied with d" in tied.measured
+
+
+def test_a_group_without_runs_is_not_comparable() -> None:
+    verdict = reduction_verdict([1.0, 2.0], [], 0.35)
+    assert verdict.verdict == "not comparable" and verdict.measured == "no runs to compare"
