@@ -189,6 +189,33 @@ def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
     return paths
 
 
+def _av_bars(
+    ax: Any, data: Data, controllers: list[str], attr: str, *, scale: float, width: float, shift: float
+) -> None:
+    """One bar per controller for 1 AV and one for 3 AVs: the mean of `attr` times `scale`, with its 95% CI."""
+    for k, avs in enumerate((1, 3)):
+        stats = [_scaled(mean_ci(getattr(data.groups[(c, avs)], attr)), scale) if (c, avs) in data.groups
+                 else (0.0, 0.0, 0.0) for c in controllers]  # fmt: skip
+        xs = [i + (k + shift) * width for i in range(len(controllers))]
+        ax.bar(xs, [s[0] for s in stats], width, color=COLORS[k], label=f"{avs} AV{'s' if avs > 1 else ''}",
+               yerr=[[s[0] - s[1] for s in stats], [s[2] - s[0] for s in stats]], capsize=2)  # fmt: skip
+
+
+def _finish(ax: Any, controllers: list[str], ylabel: str, title: str) -> None:
+    ax.set_xticks(range(len(controllers)), [label(c) for c in controllers], rotation=30, fontsize=8)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+
+
+def _close(fig: Any, out: Path, stem: str, title: str) -> list[Path]:
+    fig.suptitle(title)
+    fig.tight_layout()
+    paths = _save(fig, out, stem)
+    _pyplot().close(fig)
+    return paths
+
+
 def collision_figure(data: Data, out: Path) -> list[Path]:
     plt = _pyplot()
     controllers = data.present()
@@ -196,26 +223,13 @@ def collision_figure(data: Data, out: Path) -> list[Path]:
     for ax, attr, title in ((axes[0], "collisions", "physical contact (mingap-factor 0)"),
                             (axes[1], "mingap", "closer than minGap (SUMO's default criterion)")):  # fmt: skip
         width = 0.26
-        for k, avs in enumerate((1, 3)):
-            stats = [mean_ci(getattr(data.groups[(c, avs)], attr)) if (c, avs) in data.groups else (0.0, 0.0, 0.0)
-                     for c in controllers]  # fmt: skip
-            per100 = [_scaled(s, 100.0) for s in stats]
-            xs = [i + (k - 1) * width for i in range(len(controllers))]
-            ax.bar(xs, [s[0] for s in per100], width, color=COLORS[k], label=f"{avs} AV{'s' if avs > 1 else ''}",
-                   yerr=[[s[0] - s[1] for s in per100], [s[2] - s[0] for s in per100]], capsize=2)  # fmt: skip
+        _av_bars(ax, data, controllers, attr, scale=100.0, width=width, shift=-1.0)
         if attr == "collisions":
             xs = [i + width for i, c in enumerate(controllers) if c in PAPER_COLLISIONS]
             ax.bar(xs, [PAPER_COLLISIONS[c] for c in controllers if c in PAPER_COLLISIONS], width, facecolor="none",
                    edgecolor="black", hatch="///", label=f"paper ({COLLISION_CITE})")  # fmt: skip
-        ax.set_xticks(range(len(controllers)), [label(c) for c in controllers], rotation=30, fontsize=8)
-        ax.set_ylabel("AV collisions per 100 runs")
-        ax.set_title(title, fontsize=10)
-        ax.legend(fontsize=8)
-    fig.suptitle("Collisions involving an AV per 100 runs (20 km); 95% CI")
-    fig.tight_layout()
-    paths = _save(fig, out, "fig5_collisions")
-    plt.close(fig)
-    return paths
+        _finish(ax, controllers, "AV collisions per 100 runs", title)
+    return _close(fig, out, "fig5_collisions", "Collisions involving an AV per 100 runs (20 km); 95% CI")
 
 
 def cost_figure(data: Data, controllers: list[str], out: Path) -> list[Path]:
@@ -225,28 +239,15 @@ def cost_figure(data: Data, controllers: list[str], out: Path) -> list[Path]:
     for ax, attr, unit, title in ((axes[0], "travel_s", "s", "AV travel time"),
                                   (axes[1], "bg_speed_ms", "km/h", "mean speed of the other traffic")):  # fmt: skip
         scale = 3.6 if unit == "km/h" else 1.0
-        for k, avs in enumerate((1, 3)):
-            stats = [mean_ci(getattr(data.groups[(c, avs)], attr)) if (c, avs) in data.groups else (0.0, 0.0, 0.0)
-                     for c in controllers]  # fmt: skip
-            stats = [_scaled(s, scale) for s in stats]
-            xs = [i + (k - 0.5) * width for i in range(len(controllers))]
-            ax.bar(xs, [s[0] for s in stats], width, color=COLORS[k], label=f"{avs} AV{'s' if avs > 1 else ''}",
-                   yerr=[[s[0] - s[1] for s in stats], [s[2] - s[0] for s in stats]], capsize=2)  # fmt: skip
+        _av_bars(ax, data, controllers, attr, scale=scale, width=width, shift=-0.5)
         values = [
             s for c in controllers for a in (1, 3) if (c, a) in data.groups for s in getattr(data.groups[(c, a)], attr)
         ]
         if values:
             low, high = min(values) * scale, max(values) * scale
             ax.set_ylim(low - 0.1 * (high - low + 1), high + 0.1 * (high - low + 1))
-        ax.set_xticks(range(len(controllers)), [label(c) for c in controllers], rotation=30, fontsize=8)
-        ax.set_ylabel(unit)
-        ax.set_title(title, fontsize=10)
-        ax.legend(fontsize=8)
-    fig.suptitle("The cost the paper left out (its Sec. V): mean of the runs, 95% CI")
-    fig.tight_layout()
-    paths = _save(fig, out, "fig6_cost")
-    plt.close(fig)
-    return paths
+        _finish(ax, controllers, unit, title)
+    return _close(fig, out, "fig6_cost", "The cost the paper left out (its Sec. V): mean of the runs, 95% CI")
 
 
 # ---------------------------------------------------------------------------------------------------- report.md
