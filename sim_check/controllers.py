@@ -67,7 +67,6 @@ SETUPS = {
     )
 }  # fmt: skip
 CONTROLLERS = tuple(SETUPS)
-FSM_CONTROLLERS = tuple(name for name, s in SETUPS.items() if s.kind == "fsm")
 # The paper's comparison (Sec. IV): every model once, MLCA as generated C, and the repair.
 PAPER_MATRIX = ("lc2013", "sl2015", "continuous", "idm-lc", "mobil", "without", "mlca-c", "mlca_r-c")
 

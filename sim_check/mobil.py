@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from sim_check.sensing import neighbours
+from sim_check.sensing import Leader, neighbours
 
 FREE = math.inf  # no vehicle: an infinite gap
 
@@ -114,27 +114,26 @@ def _nearest(pairs: Any, speed: Any) -> Car:
     return Car(gap, speed(vid))
 
 
-def decide(sumo: Any, av: str, where: tuple[str, int, float], lanes: int, *, lane_end: float, lowest: int = 0) -> int:
-    """+1, -1 or 0: the side MOBIL changes to this step, from libsumo's view of the AV. `lane_end` is the distance
-    to the end of the AV's lane (infinite where it continues); lanes below `lowest` are not entered (a lane that
-    ends). A vehicle beside the AV comes back as a neighbour with a negative gap: not safe."""
-    _edge, lane, _pos = where
+def decide(sumo: Any, av: str, lane: int, lanes: int, *, leader: Leader, lane_end: float, lowest: int = 0) -> int:
+    """+1, -1 or 0: the side MOBIL changes to this step, from libsumo's view of the AV in `lane` of an edge with
+    `lanes` lanes. `leader` is the AV's leader as read this step; `lane_end` is the distance to the end of the
+    AV's lane (infinite where it continues); lanes below `lowest` are not entered (a lane that ends). A vehicle
+    beside the AV comes back as a neighbour with a negative gap: not safe."""
     speed = sumo.vehicle.getSpeed
     v = speed(av)
     v0 = sumo.vehicle.getAllowedSpeed(av)
     idm = Idm(v0=max(v0, 1.0))
     length = sumo.vehicle.getLength(av)
-    lead = sumo.vehicle.getLeader(av, 250.0)
-    leader = Car(lead[1], speed(lead[0])) if lead and lead[0] else Car()
-    if lane_end < leader.gap:  # the end of the lane is a standing obstacle
-        leader = Car(lane_end, 0.0)
+    ahead = Car(leader[1], speed(leader[0])) if leader else Car()
+    if lane_end < ahead.gap:  # the end of the lane is a standing obstacle
+        ahead = Car(lane_end, 0.0)
     follow = sumo.vehicle.getFollower(av, 250.0)
     follower = Car(follow[1], speed(follow[0])) if follow and follow[0] else Car()
     best, best_gain = 0, -math.inf
     for side in (+1, -1):
         if not lowest <= lane + side < lanes:
             continue
-        scene = Scene(v, length, leader, follower, _nearest(neighbours(sumo, av, side, leaders=True), speed),
+        scene = Scene(v, length, ahead, follower, _nearest(neighbours(sumo, av, side, leaders=True), speed),
                       _nearest(neighbours(sumo, av, side, leaders=False), speed))  # fmt: skip
         verdict = evaluate(scene, side, idm, idm)
         if verdict.change and verdict.incentive > best_gain:

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-MARKS = (5, 10, 15, 20)
+from sim_check.runner import MARKS_KM
+
+MARKS = MARKS_KM  # Sec. IV-B: lane changes counted at 5, 10, 15 and 20 km
 
 
 @dataclass(frozen=True)

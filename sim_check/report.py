@@ -94,7 +94,7 @@ def load(db: Path) -> Data:
         g.failed += status != "done"
         g.violations += violations or 0
     query = (
-        "SELECT r.controller, r.avs, r.seed, SUM(m.lc_5km), SUM(m.lc_10km), SUM(m.lc_15km), SUM(m.lc_20km),"
+        f"SELECT r.controller, r.avs, r.seed, {', '.join(f'SUM(m.lc_{km}km)' for km in MARKS)},"
         " SUM(m.collisions), SUM(m.mingap_contacts), AVG(m.travel_time_s), AVG(m.mean_speed_ms), r.bg_mean_speed_ms"
         " FROM runs r JOIN av_metrics m USING (controller, avs, seed) WHERE r.status = 'done'"
         " GROUP BY r.controller, r.avs, r.seed ORDER BY r.controller, r.avs, r.seed"

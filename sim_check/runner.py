@@ -22,7 +22,7 @@ from typing import Any
 from sim_check import mobil
 from sim_check.controllers import Controller, Setup, load_controller, setup_of
 from sim_check.scenario import Scenario, build, sumo_bin
-from sim_check.sensing import Claim, Leader, Sensed, sense
+from sim_check.sensing import Claim, Leader, Sensed, decides_on, lane_end, sense
 
 MARKS_KM = (5, 10, 15, 20)
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
@@ -120,7 +120,6 @@ class ClosedLoop:
         self.setup = setup
         self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
         self.scenario = scenario
-        self.av_ids = av_ids
         self.state: dict[str, int] = {}
         self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
         self.last_change: dict[str, float] = {}
@@ -204,13 +203,14 @@ class ClosedLoop:
             m.emergency_brakes += 1
         self.braking[av] = braking
         speed = sumo.vehicle.getSpeed(av)
-        leader = sumo.vehicle.getLeader(av, 250.0)
-        if leader is not None and leader[0] and speed > 1.0:
+        found = sumo.vehicle.getLeader(av, 250.0)
+        leader: Leader = found if found and found[0] else None
+        if leader is not None and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
         self.mingap(av, leader)
         self.digest.update(f"{av}|{edge}|{lane}|{pos:.3f}\n".encode())
-        return (edge, lane, pos), (leader if leader and leader[0] else None), speed
+        return (edge, lane, pos), leader, speed
 
     def mingap(self, av: str, leader: Leader) -> None:
         """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
@@ -225,13 +225,13 @@ class ClosedLoop:
         if kind == "sumo":
             return
         if kind == "mobil":
-            self.decide_mobil(av, t, where)
+            self.decide_mobil(av, t, where, leader)
             return
         sensed = sense(self.sumo, av, self.scenario.target_lane, claims, where, leader=leader)
         if sensed is None:
             return
-        without = sensed.direction if sensed.inputs["N"] else 0
-        side = self.machine(av, t, sensed) if kind == "fsm" else without
+        # "without" goes wherever N points (the direction is 0 exactly when N does not hold)
+        side = self.machine(av, t, sensed) if kind == "fsm" else sensed.direction
         if side and self.command(av, t, sensed.lane + side) and kind == "fsm":
             claims.append(Claim(av, sensed.edge, sensed.lane + side, where[2]))
         self.account(av, sensed, side)
@@ -280,16 +280,14 @@ class ClosedLoop:
                 need.deferred = True
                 m.needs_deferred += 1
 
-    def decide_mobil(self, av: str, t: float, where: tuple[str, int, float]) -> None:
+    def decide_mobil(self, av: str, t: float, where: tuple[str, int, float], leader: Leader) -> None:
         edge, lane, pos = where
-        if edge == "ramp" or edge.startswith(":"):
+        if not decides_on(edge):
             return
         lanes = self.sumo.edge.getLaneNumber(edge)
-        ends = edge == "acc" and lane == 0
-        lane_end = self.sumo.lane.getLength(f"{edge}_{lane}") - pos if ends else float("inf")
-        side = mobil.decide(
-            self.sumo, av, where, lanes, lane_end=lane_end, lowest=1 if edge == "acc" and lane > 0 else 0
-        )
+        end = lane_end(self.sumo, edge, lane, pos)
+        lowest = 1 if edge == "acc" and lane > 0 else 0
+        side = mobil.decide(self.sumo, av, lane, lanes, leader=leader, lane_end=end, lowest=lowest)
         if side:
             self.command(av, t, lane + side)
 
@@ -299,15 +297,11 @@ class ClosedLoop:
 
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
-    return [*_base_args(scenario, net, routes, seed), *options]
-
-
-def _base_args(scenario: Scenario, net: Path, routes: Path, seed: int) -> list[str]:
     return [
         sumo_bin("sumo"), "-n", str(net), "-r", str(routes), "--seed", str(seed),
         "--step-length", str(scenario.traffic.step_s),
         "--collision.action", "warn", "--collision.check-junctions", "true", "--collision.mingap-factor", "0",
-        "--no-step-log", "true", "--duration-log.disable", "true", "--no-warnings", "true",
+        "--no-step-log", "true", "--duration-log.disable", "true", "--no-warnings", "true", *options,
     ]  # fmt: skip
 
 

@@ -19,6 +19,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,15 +53,23 @@ class Sensed:
     edge: str
 
 
-def wanted_lane(edge: str, target: int, lanes: int) -> int | None:
-    """The lane the AV wants on `edge`: the target lane on the built-in highway, the middle lane elsewhere
-    (an imported OpenStreetMap road); None where it makes no decision (the ramp, inside junctions)."""
+def decides_on(edge: str) -> bool:
+    """Whether an AV makes lane decisions on `edge`: not on the ramp (one lane), not inside a junction."""
+    return edge != "ramp" and not edge.startswith(":")
+
+
+def lane_end(sumo: Any, edge: str, lane: int, pos: float) -> float:
+    """Metres to the end of the AV's lane: the acceleration lane (lane 0 of `acc`) ends, every other continues."""
+    return sumo.lane.getLength(f"{edge}_{lane}") - pos if edge == "acc" and lane == 0 else math.inf
+
+
+def wanted_lane(edge: str, target: int, lanes: int) -> int:
+    """The lane the AV wants on `edge` (one it decides on): the target lane on the built-in highway, the middle
+    lane elsewhere (an imported OpenStreetMap road)."""
     if edge == "acc":
         return target + 1  # lane i+1 of the acceleration edge continues as lane i of the highway
     if edge in ("hw", "hw_in"):
         return target
-    if edge == "ramp" or edge.startswith(":"):
-        return None
     return lanes // 2
 
 
@@ -103,12 +112,10 @@ def sense(
     `where` is the AV's edge, lane index and position on the lane, and `leader` its leader, already read this
     step."""
     edge, lane, pos = where
-    if edge == "ramp" or edge.startswith(":"):
+    if not decides_on(edge):
         return None
     lanes = sumo.edge.getLaneNumber(edge)
     wanted = wanted_lane(edge, target, lanes)
-    if wanted is None:
-        return None
     direction = (wanted > lane) - (wanted < lane)
     if direction == 0 and leader is not None and _slow(sumo, leader[0], leader[1], av):
         direction = 1 if lane + 1 < lanes else -1
@@ -118,13 +125,11 @@ def sense(
         and any(_slow(sumo, vid, gap, av) for vid, gap in neighbours(sumo, av, direction, leaders=True))
     ):
         direction = 0
-    ends = edge == "acc" and lane == 0
-    remaining = sumo.lane.getLength(f"{edge}_{lane}") - pos if ends else float("inf")
     left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)
     right = direction < 0 and lane > 0 and not _claimed(claims, av, edge, lane - 1, pos)
     inputs = {
         "N": direction != 0,
-        "W": not (ends and remaining < URGENT_M),
+        "W": lane_end(sumo, edge, lane, pos) >= URGENT_M,
         "L": left and _gap_ok(sumo, av, +1),
         "R": right and _gap_ok(sumo, av, -1),
     }

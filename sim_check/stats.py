@@ -81,7 +81,7 @@ def reduction_verdict(subject: Sequence[float], baseline: Sequence[float], claim
     t = mann_whitney_less(subject, baseline)
     test = f"Mann-Whitney U = {t.u:.0f}, one-sided p = {_p(t.p)}, rank-biserial r = {t.effect:+.2f}"
     if math.isnan(r):
-        mean_s = float(np.mean(subject)) if len(subject) else float("nan")
+        mean_s = float(np.mean(subject))
         return Verdict("not comparable", f"baseline mean 0 (subject mean {mean_s:.2f}): no reduction is defined", test)
     measured = f"{r:+.0%} [{lo:+.0%}, {hi:+.0%}]"
     if lo <= claimed <= hi and t.p < ALPHA:
