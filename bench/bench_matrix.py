@@ -8,6 +8,10 @@ Run on demand:
 - `.venv/bin/python bench/bench_matrix.py --lateral --runs 10`: the SL2015 sublane model at several lateral
   resolutions on the same seeds: wall time per run and the AV's lane changes at 20 km and collisions, against the
   finest resolution, so that the coarsest resolution whose results agree can be chosen.
+- `.venv/bin/python bench/bench_matrix.py --floor --runs 100 --seeds 2`: the floor of the matrix on this machine:
+  plain SUMO alone (`sim_check.runner.run_plain`: no closed loop) for each controller's SUMO configuration, with 1
+  and 3 AVs, on SEEDS seeds; RUNS such runs of every configuration, shared perfectly by JOBS workers, is the least
+  time any harness could take for the matrix here.
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ from pathlib import Path
 
 from sim_check.cli import main as sim_main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
-from sim_check.runner import RunResult, run_once
+from sim_check.runner import RunResult, run_once, run_plain
 from sim_check.scenario import load_scenario
 
 RESOLUTIONS = (0.4, 0.8, 1.6, 3.2)
@@ -33,7 +37,7 @@ def _lateral_run(job: tuple[float, int]) -> tuple[float, int, RunResult]:
     resolution, seed = job
     setup = replace(SETUPS["sl2015"], options=("--lateral-resolution", str(resolution)))
     with tempfile.TemporaryDirectory() as work:
-        return resolution, seed, run_once(load_scenario(), "sl2015", seed, Path(work), setup)
+        return resolution, seed, run_once(load_scenario(), "sl2015", seed, Path(work), setup=setup)
 
 
 def lateral(runs: int, jobs: int) -> None:
@@ -54,6 +58,26 @@ def lateral(runs: int, jobs: int) -> None:
         print(f"  {res:12.1f} {statistics.mean(r.wall_s for r in rows):10.1f} {statistics.mean(lc):12.2f} "
               f"{statistics.mean(diffs):+14.2f} {sum(r.metrics[0].collisions for r in rows):13d} "
               f"{sum(r.collisions for r in rows):14d}")  # fmt: skip
+
+
+def floor(runs: int, jobs: int, seeds: int) -> None:
+    measured: dict[tuple[str, tuple[str, ...], int], float] = {}  # (AV vType, options, AVs) -> mean s per run
+    total = 0.0
+    print(f"plain SUMO per configuration of the matrix, mean of seeds 0..{seeds - 1} (one process):")
+    print(f"  {'controller':12} {'avs':>3} {'s/run':>7}")
+    with tempfile.TemporaryDirectory() as work:
+        for controller in PAPER_MATRIX:
+            setup = SETUPS[controller]
+            for avs in (1, 3):
+                key = (setup.av_type, setup.options, avs)
+                if key not in measured:
+                    scenario = load_scenario().with_avs(avs)
+                    walls = [run_plain(scenario, seed, Path(work), setup=setup)[0] for seed in range(seeds)]
+                    measured[key] = statistics.mean(walls)
+                total += measured[key] * runs
+                print(f"  {controller:12} {avs:>3} {measured[key]:7.2f}", flush=True)
+    print(f"floor of the full matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} "
+          f"workers: {total / jobs / 60:.1f} min of SUMO alone (target for the whole matrix: 40 min)")  # fmt: skip
 
 
 def matrix(runs: int, jobs: int, db: Path) -> None:
@@ -83,8 +107,12 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--db", type=Path, default=Path("matrix.sqlite"))
     parser.add_argument("--lateral", action="store_true", help="compare the sublane model's lateral resolutions")
+    parser.add_argument("--floor", action="store_true", help="the matrix's floor: plain SUMO per configuration")
+    parser.add_argument("--seeds", type=int, default=2, help="seeds per configuration for --floor")
     args = parser.parse_args()
-    if args.lateral:
+    if args.floor:
+        floor(args.runs, args.jobs, args.seeds)
+    elif args.lateral:
         lateral(args.runs, args.jobs)
     else:
         matrix(args.runs, args.jobs, args.db)

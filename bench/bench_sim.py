@@ -1,81 +1,127 @@
 """Benchmark the closed loop against plain SUMO on the same run, and the time of a 100-run sweep.
 
-Run on demand: `.venv/bin/python bench/bench_sim.py [--runs 100] [--jobs 2] [--repeat 3]`. Prints, side by
-side in one run, for the paper's scenario (20 km, 100 cars, step 0.1 s, one AV, seed 0):
-- plain SUMO through libsumo, stepping until the AV arrives, the AV left to SUMO's own lane changing;
+Run on demand: `.venv/bin/python bench/bench_sim.py [--runs 100] [--jobs 2] [--repeat 5] [--instructions 500]`.
+Prints, side by side in one run, for the paper's scenario (20 km, 100 cars, step 0.1 s, one AV, seed 0):
+- plain SUMO through libsumo, stepped from Python until the AV arrives, the AV left to SUMO's own lane changing
+  (`sim_check.runner.run_plain`);
 - the closed loop (sensing, the generated C controller, the runtime monitor, metrics), the controller loaded
   beforehand as a sweep worker has it;
-their ratio (target: at most 1.1), vehicle-steps per second, and the wall time of a sweep of RUNS runs of one
-configuration over JOBS worker processes (target: 100 runs in under 2 minutes).
+measured in REPEAT interleaved pairs (the order alternating), so that a slower spell of the machine hits both
+alike: the best of each, and the median of the pairs' ratios (target: at most 1.1). Then the wall time of a
+sweep of RUNS runs of one configuration over JOBS worker processes (target: 100 runs in under 2 minutes), beside
+its floor: RUNS runs of plain SUMO at the best time measured above, shared perfectly by JOBS workers.
+
+With `--instructions SECONDS`, also the instructions each side executes over the first SECONDS simulated seconds,
+counted by valgrind's callgrind (repeatable whatever else the machine does; the start of Python and SUMO, counted
+alone, is subtracted from both). It separates the work the closed loop adds from the time that work costs.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
+import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-import libsumo
-
 from sim_check.controllers import load_controller
-from sim_check.runner import run_once, sumo_args
-from sim_check.scenario import build, load_scenario
+from sim_check.runner import SIM_LIMIT_S, run_once, run_plain
+from sim_check.scenario import load_scenario
 from sim_check.sweep import Sweep
 
+CONTROLLER = "mlca-c"
 
-def plain(work: Path) -> tuple[float, int, int]:
-    scenario = load_scenario()
-    built = build(scenario, 0, work)
+
+def plain(work: Path, limit_s: float = SIM_LIMIT_S) -> tuple[float, int, int]:
+    return run_plain(load_scenario(), 0, work, limit_s=limit_s)
+
+
+def closed(work: Path, limit_s: float = SIM_LIMIT_S) -> tuple[float, int, int]:
+    load_controller(CONTROLLER)
     start = time.perf_counter()
-    libsumo.start(sumo_args(scenario, built.net, built.routes, 0))
-    steps = vehicle_steps = 0
-    arrived = False
-    while not arrived:
-        libsumo.simulationStep()
-        steps += 1
-        vehicle_steps += libsumo.vehicle.getIDCount()
-        arrived = "av0" in libsumo.simulation.getArrivedIDList()
-    libsumo.close()
-    return time.perf_counter() - start, steps, vehicle_steps
-
-
-def closed(work: Path) -> tuple[float, int, int]:
-    load_controller("mlca-c")
-    start = time.perf_counter()
-    result = run_once(load_scenario(), "mlca-c", 0, work)
+    result = run_once(load_scenario(), CONTROLLER, 0, work, limit_s=limit_s)
     return time.perf_counter() - start, result.sim_steps, result.vehicle_steps
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--runs", type=int, default=100)
-    parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--repeat", type=int, default=3)
-    args = parser.parse_args()
+def child(mode: str, limit_s: float) -> None:
+    """What one callgrind process runs: the start alone, plain SUMO or the closed loop, for `limit_s`."""
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)
-        rows: dict[str, list[tuple[float, int, int]]] = {"plain SUMO (libsumo)": [], "closed loop, mlca-c": []}
-        for _ in range(args.repeat):  # interleaved, so that a slower spell of the machine hits both alike
-            rows["plain SUMO (libsumo)"].append(plain(work))
-            rows["closed loop, mlca-c"].append(closed(work))
-        print(f"one 20 km run of the paper's scenario, seed 0, best of {args.repeat}:")
-        print(f"  {'':24} {'wall s':>8} {'steps':>7} {'vehicle-steps':>14} {'vehicle-steps/s':>16}")
-        best = {}
+        plain(work, 0.0)  # the start alone (and the network built for the others)
+        load_controller(CONTROLLER)
+        if mode == "plain":
+            plain(work, limit_s)
+        elif mode == "closed":
+            closed(work, limit_s)
+
+
+def instructions(limit_s: float) -> None:
+    counts = {}
+    for mode in ("start", "plain", "closed"):
+        ran = subprocess.run(
+            ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, __file__,
+             "--child", mode, "--instructions", str(limit_s)],
+            capture_output=True, text=True, check=False,
+        )  # fmt: skip
+        found = re.search(r"Collected : (\d+)", ran.stderr)
+        if ran.returncode != 0 or not found:
+            sys.exit(f"error: callgrind failed ({mode}): {ran.stderr.strip()[-500:]}")
+        counts[mode] = int(found.group(1))
+    plain_i, closed_i = counts["plain"] - counts["start"], counts["closed"] - counts["start"]
+    print(f"instructions over the first {limit_s:.0f} simulated s (callgrind, the start subtracted):")
+    print(f"  plain SUMO {plain_i / 1e9:.3f} G, closed loop {closed_i / 1e9:.3f} G: "
+          f"ratio {closed_i / plain_i:.3f}; the closed loop adds {closed_i - plain_i:,} instructions\n")  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--instructions", type=float, metavar="SECONDS", help="also count instructions (valgrind)")
+    parser.add_argument("--child", choices=("start", "plain", "closed"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        child(args.child, args.instructions)
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder)
+        plain(work, 0.0)  # the network is built once, outside the timings
+        load_controller(CONTROLLER)
+        labels = ("plain SUMO (libsumo)", f"closed loop, {CONTROLLER}")
+        rows: dict[str, list[tuple[float, int, int]]] = {label: [] for label in labels}
+        for k in range(args.repeat):
+            order = (plain, closed) if k % 2 == 0 else (closed, plain)
+            for measure in order:
+                rows[labels[measure is closed]].append(measure(work))
+        print(f"one 20 km run of the paper's scenario, seed 0, {args.repeat} interleaved pairs:")
+        print(f"  {'':24} {'best wall s':>11} {'median s':>9} {'steps':>7} {'vehicle-steps':>14} "
+              f"{'vehicle-steps/s':>16}")  # fmt: skip
         for label, samples in rows.items():
             wall, steps, vsteps = min(samples)
-            best[label] = wall
-            print(f"  {label:24} {wall:8.2f} {steps:7d} {vsteps:14d} {vsteps / wall:16.0f}")
-        ratio = best["closed loop, mlca-c"] / best["plain SUMO (libsumo)"]
-        print(f"  ratio closed loop / plain SUMO: {ratio:.2f} (target: at most 1.1)\n")
+            median = statistics.median(s[0] for s in samples)
+            print(f"  {label:24} {wall:11.2f} {median:9.2f} {steps:7d} {vsteps:14d} {vsteps / wall:16.0f}")
+        pairs = [c[0] / p[0] for p, c in zip(rows[labels[0]], rows[labels[1]], strict=True)]
+        best_plain = min(s[0] for s in rows[labels[0]])
+        print(f"  ratio closed loop / plain SUMO: median of the pairs {statistics.median(pairs):.2f} "
+              f"(pairs {', '.join(f'{r:.2f}' for r in pairs)}); target: at most 1.1\n")  # fmt: skip
+        if args.instructions is not None:
+            instructions(args.instructions)
         start = time.perf_counter()
         sweep = Sweep(load_scenario(), work / "bench.sqlite", args.jobs, timeout_s=600)
-        results = sweep.run([("mlca-c", 1, seed) for seed in range(args.runs)], lambda r: None)
+        results = sweep.run([(CONTROLLER, 1, seed) for seed in range(args.runs)], lambda r: None)
         wall = time.perf_counter() - start
         failed = sum(r.status != "done" for r in results)
-        print(f"sweep: {args.runs} runs of mlca-c with 1 AV on {args.jobs} workers: {wall:.1f} s wall "
-              f"({wall / args.runs:.2f} s per run), {failed} failed (target: 100 runs in under 120 s; "
-              "the paper: 6.5 hours for its 100 runs)")  # fmt: skip
+        floor = best_plain * args.runs / args.jobs
+        print(
+            f"sweep: {args.runs} runs of {CONTROLLER} with 1 AV on {args.jobs} workers: {wall:.1f} s wall "
+            f"({wall / args.runs:.2f} s per run), {failed} failed; target: 100 runs in under 120 s"
+        )
+        print(f"  floor on this machine: {args.runs} runs of plain SUMO at {best_plain:.2f} s on {args.jobs} workers "
+              f"= {floor:.1f} s; the paper: 6.5 hours for its 100 runs")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -90,6 +90,12 @@ class Controller:
     def step(self, state: int, inputs: dict[str, bool]) -> int:
         return self.c.step(state, inputs) if self.c else self.py.step(state, inputs)  # type: ignore[union-attr]
 
+    def holds(self, state: int, inputs: dict[str, bool]) -> bool:
+        """The runtime monitor: whether every invariant holds."""
+        if self.c:
+            return self.c.invariants_hold(state, inputs)
+        return not self.py.invariants(state, inputs)  # type: ignore[union-attr]
+
     def failing(self, state: int, inputs: dict[str, bool]) -> list[str]:
         """The runtime monitor: failing invariant ids (the C monitor says only whether all hold)."""
         if self.c:

@@ -120,6 +120,7 @@ class ClosedLoop:
         self.setup = setup
         self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
         self.scenario = scenario
+        self.target = scenario.target_lane
         self.state: dict[str, int] = {}
         self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
         self.last_change: dict[str, float] = {}
@@ -127,7 +128,10 @@ class ClosedLoop:
         self.braking: dict[str, bool] = {}
         self.need: dict[str, Need] = {}
         self.close: dict[str, set[str]] = {av: set() for av in av_ids}
-        self.history: dict[str, deque[dict[str, Any]]] = {av: deque(maxlen=TRACE_STEPS) for av in av_ids}
+        # (time, state, inputs, next state) of the last steps, turned into the stored trace on a violation
+        self.history: dict[str, deque[tuple[float, int, dict[str, bool], int]]] = {
+            av: deque(maxlen=TRACE_STEPS) for av in av_ids
+        }
         self.violations: list[dict[str, Any]] = []
         self.pairs: set[tuple[str, str]] = set()
         self.digest = hashlib.sha256()
@@ -135,6 +139,7 @@ class ClosedLoop:
         self.steps = 0
         self.bg_speed = [0.0, 0]  # sum of sampled speeds, number of samples
         self.edges: list[str] = []
+        self.arrived = 0
 
     def step(self, t: float) -> None:
         sumo = self.sumo
@@ -147,6 +152,7 @@ class ClosedLoop:
         for av in sumo.simulation.getArrivedIDList():
             if av in self.metrics:
                 self.metrics[av].arrive_s = t
+                self.arrived += 1
                 self.state.pop(av, None)
                 if self.need.pop(av, None) is not None:
                     self.metrics[av].needs_open += 1
@@ -156,7 +162,7 @@ class ClosedLoop:
         for av in sorted(self.state):
             where, leader, speed = self.observe(av)
             speeds += speed
-            self.decide(av, t, claims, where, leader)
+            self.decide(av, t, claims, where, leader=leader, speed=speed)
         self.steps += 1
         if self.steps % SAMPLE_STEPS == 0:
             self.sample(speeds, len(self.state))
@@ -187,9 +193,9 @@ class ClosedLoop:
                     self.metrics[vid].collisions += 1
 
     def observe(self, av: str) -> tuple[tuple[str, int, float], Leader, float]:
-        sumo, m = self.sumo, self.metrics[av]
-        edge, lane, pos = sumo.vehicle.getRoadID(av), sumo.vehicle.getLaneIndex(av), sumo.vehicle.getLanePosition(av)
-        m.distance_m = sumo.vehicle.getDistance(av)
+        vehicle, m = self.sumo.vehicle, self.metrics[av]
+        edge, lane, pos = vehicle.getRoadID(av), vehicle.getLaneIndex(av), vehicle.getLanePosition(av)
+        m.distance_m = vehicle.getDistance(av)
         before = self.place.get(av)
         if before is not None and before[0] == edge and before[1] != lane and not edge.startswith(":"):
             m.lane_changes.append(m.distance_m)
@@ -198,36 +204,37 @@ class ClosedLoop:
                 need.moved = True
                 m.needs_moved += 1
         self.place[av] = (edge, lane)
-        braking = sumo.vehicle.getAcceleration(av) < -EMERGENCY_DECEL
+        braking = vehicle.getAcceleration(av) < -EMERGENCY_DECEL
         if braking and not self.braking.get(av, False):
             m.emergency_brakes += 1
         self.braking[av] = braking
-        speed = sumo.vehicle.getSpeed(av)
-        found = sumo.vehicle.getLeader(av, 250.0)
+        speed = vehicle.getSpeed(av)
+        found = vehicle.getLeader(av, 250.0)
         leader: Leader = found if found and found[0] else None
         if leader is not None and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
-        self.mingap(av, leader)
+        self.mingap(av, leader, vehicle.getFollower(av, 50.0))
         self.digest.update(f"{av}|{edge}|{lane}|{pos:.3f}\n".encode())
         return (edge, lane, pos), leader, speed
 
-    def mingap(self, av: str, leader: Leader) -> None:
+    def mingap(self, av: str, leader: Leader, follower: tuple[str, float]) -> None:
         """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
         the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact."""
-        follower = self.sumo.vehicle.getFollower(av, 50.0)
         now = {vid for vid, gap in (leader or ("", 0.0), follower) if vid and gap < 0.0}
         self.metrics[av].mingap_contacts += len(now - self.close[av])
         self.close[av] = now
 
-    def decide(self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], leader: Leader) -> None:
+    def decide(
+        self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
+    ) -> None:
         kind = self.setup.kind
         if kind == "sumo":
             return
         if kind == "mobil":
             self.decide_mobil(av, t, where, leader)
             return
-        sensed = sense(self.sumo, av, self.scenario.target_lane, claims, where, leader=leader)
+        sensed = sense(self.sumo, av, self.target, claims, where, leader=leader, speed=speed)
         if sensed is None:
             return
         # "without" goes wherever N points (the direction is 0 exactly when N does not hold)
@@ -240,20 +247,26 @@ class ClosedLoop:
         """One step of the generated machine and its runtime monitor; the side it moves to (+1, -1 or 0)."""
         ctrl = self.ctrl
         assert ctrl is not None
-        old = self.state[av]
-        new = ctrl.step(old, sensed.inputs)
+        old, inputs = self.state[av], sensed.inputs
+        new = ctrl.step(old, inputs)
         self.state[av] = new
-        names = ctrl.states
+        name = ctrl.states[new]
         state_s = self.metrics[av].state_s
-        state_s[names[new]] = state_s.get(names[new], 0.0) + self.dt
-        self.history[av].append({"t": round(t, 3), "state": names[old], "inputs": sensed.inputs, "next": names[new]})
-        failing = ctrl.failing(new, sensed.inputs)
-        if failing:
-            self.metrics[av].monitor_violations += 1
-            self.violations.append(
-                {"av": av, "time_s": round(t, 3), "invariants": failing, "trace": list(self.history[av])}
-            )
-        return {"MOVING_LEFT": 1, "MOVING_RIGHT": -1}.get(names[new], 0)
+        state_s[name] = state_s.get(name, 0.0) + self.dt
+        self.history[av].append((t, old, inputs, new))
+        if not ctrl.holds(new, inputs):
+            self.violation(av, t, ctrl.failing(new, inputs))
+        return 1 if name == "MOVING_LEFT" else -1 if name == "MOVING_RIGHT" else 0
+
+    def violation(self, av: str, t: float, failing: list[str]) -> None:
+        """Store a runtime-monitor violation with the steps that led to it."""
+        names = self.ctrl.states if self.ctrl else ()
+        trace = [
+            {"t": round(when, 3), "state": names[old], "inputs": inputs, "next": names[new]}
+            for when, old, inputs, new in self.history[av]
+        ]
+        self.metrics[av].monitor_violations += 1
+        self.violations.append({"av": av, "time_s": round(t, 3), "invariants": failing, "trace": trace})
 
     def command(self, av: str, t: float, target: int) -> bool:
         """Ask SUMO for a lane change, at most once per DWELL_S (SUMO's change is instantaneous)."""
@@ -293,7 +306,7 @@ class ClosedLoop:
 
     @property
     def done(self) -> bool:
-        return all(m.arrive_s is not None for m in self.metrics.values())
+        return self.arrived == len(self.metrics)
 
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
@@ -305,9 +318,18 @@ def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: t
     ]  # fmt: skip
 
 
-def run_once(scenario: Scenario, controller: str, seed: int, work: Path, setup: Setup | None = None) -> RunResult:
+def run_once(
+    scenario: Scenario,
+    controller: str,
+    seed: int,
+    work: Path,
+    *,
+    setup: Setup | None = None,
+    limit_s: float = SIM_LIMIT_S,
+) -> RunResult:
     """One run, start to finish; raises on a simulator failure (the sweep records it). `setup` replaces the
-    controller's registered setup (a benchmark varying SUMO options)."""
+    controller's registered setup (a benchmark varying SUMO options); a run whose AVs have not all arrived after
+    `limit_s` simulated seconds fails."""
     import libsumo
 
     start = time.perf_counter()
@@ -327,8 +349,8 @@ def run_once(scenario: Scenario, controller: str, seed: int, work: Path, setup: 
             loop.step(t)
             if loop.done:
                 break
-            if t > SIM_LIMIT_S:
-                result.status, result.reason = "failed", f"AVs had not arrived after {SIM_LIMIT_S:.0f} simulated s"
+            if t > limit_s:
+                result.status, result.reason = "failed", f"AVs had not arrived after {limit_s:.0f} simulated s"
                 break
     finally:
         libsumo.close()
@@ -339,3 +361,28 @@ def run_once(scenario: Scenario, controller: str, seed: int, work: Path, setup: 
     result.violations = loop.violations
     result.trajectory_sha256 = loop.digest.hexdigest()
     return result
+
+
+def run_plain(
+    scenario: Scenario, seed: int, work: Path, *, setup: Setup | None = None, limit_s: float = SIM_LIMIT_S
+) -> tuple[float, int, int]:
+    """The same run with SUMO alone, the floor a closed-loop run is measured against (for the benchmarks): no
+    sensing, controller, monitor or metrics; the AVs drive by SUMO's own models under the setup's vType and
+    options (LC2013's by default); stepped from Python until every AV has arrived or `limit_s` has passed.
+    Returns the wall seconds from SUMO's start, the steps and the vehicle-steps."""
+    import libsumo
+
+    setup = setup or setup_of("lc2013")
+    built = build(scenario, seed, work, setup.av_type)
+    start = time.perf_counter()
+    libsumo.start(sumo_args(scenario, built.net, built.routes, seed, setup.options))
+    waiting, steps, vehicle_steps = set(built.av_ids), 0, 0
+    try:
+        while waiting and libsumo.simulation.getTime() <= limit_s:
+            libsumo.simulationStep()
+            steps += 1
+            vehicle_steps += libsumo.vehicle.getIDCount()
+            waiting.difference_update(libsumo.simulation.getArrivedIDList())
+    finally:
+        libsumo.close()
+    return time.perf_counter() - start, steps, vehicle_steps

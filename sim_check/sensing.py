@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 URGENT_M = 100.0
 LOOKAHEAD_M = 100.0
@@ -35,7 +35,7 @@ CLAIM_RADIUS_M = 30.0
 Leader = tuple[str, float] | None  # libsumo's getLeader: (id, gap) or None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Claim:
     """A V2V message: an AV intends to move into `lane` of `edge` around position `pos`."""
 
@@ -45,8 +45,7 @@ class Claim:
     pos: float
 
 
-@dataclass(frozen=True)
-class Sensed:
+class Sensed(NamedTuple):
     inputs: dict[str, bool]
     direction: int  # +1 towards the left, -1 towards the right, 0 none needed
     lane: int
@@ -82,8 +81,8 @@ def neighbours(sumo: Any, av: str, side: int, leaders: bool) -> Any:
     return v.getRightLeaders(av) if leaders else v.getRightFollowers(av)
 
 
-def _gap_ok(sumo: Any, av: str, side: int) -> bool:
-    v = sumo.vehicle.getSpeed(av)
+def _gap_ok(sumo: Any, av: str, side: int, v: float) -> bool:
+    """Whether the gap on `side` is safe for the AV driving at `v` m/s."""
     for _vid, gap in neighbours(sumo, av, side, leaders=True):
         if gap < max(MIN_GAP_M, v * TIME_GAP_S):
             return False
@@ -106,11 +105,18 @@ def _slow(sumo: Any, vid: str, gap: float, av: str) -> bool:
 
 
 def sense(
-    sumo: Any, av: str, target: int, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader
+    sumo: Any,
+    av: str,
+    target: int,
+    claims: list[Claim],
+    where: tuple[str, int, float],
+    *,
+    leader: Leader,
+    speed: float,
 ) -> Sensed | None:
     """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction).
-    `where` is the AV's edge, lane index and position on the lane, and `leader` its leader, already read this
-    step."""
+    `where` is the AV's edge, lane index and position on the lane, `leader` its leader and `speed` its speed,
+    already read this step."""
     edge, lane, pos = where
     if not decides_on(edge):
         return None
@@ -130,7 +136,7 @@ def sense(
     inputs = {
         "N": direction != 0,
         "W": lane_end(sumo, edge, lane, pos) >= URGENT_M,
-        "L": left and _gap_ok(sumo, av, +1),
-        "R": right and _gap_ok(sumo, av, -1),
+        "L": left and _gap_ok(sumo, av, +1, speed),
+        "R": right and _gap_ok(sumo, av, -1, speed),
     }
     return Sensed(inputs, direction, lane, edge)

@@ -48,8 +48,9 @@ def test_sensing_reads_the_side_it_names_and_rejects_a_car_alongside(tmp_path: P
         assert neighbours(libsumo, "av0", +1, leaders=True) == ()
         ((vid, gap),) = neighbours(libsumo, "av0", +1, leaders=False)  # the car beside: a follower, overlapping
         assert vid == "beside" and gap < 0
-        assert not _gap_ok(libsumo, "av0", +1)
-        assert _gap_ok(libsumo, "av0", -1)
+        speed = libsumo.vehicle.getSpeed("av0")
+        assert not _gap_ok(libsumo, "av0", +1, speed)
+        assert _gap_ok(libsumo, "av0", -1, speed)
     finally:
         libsumo.close()
 

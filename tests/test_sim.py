@@ -14,8 +14,10 @@ import pytest
 
 from mlca_verify.errors import SpecError
 from sim_check.cli import main
-from sim_check.runner import run_once
+from sim_check.controllers import load_controller, setup_of
+from sim_check.runner import TRACE_STEPS, ClosedLoop, run_once, run_plain
 from sim_check.scenario import load_scenario
+from sim_check.sensing import Sensed
 
 ROOT = Path(__file__).parent.parent
 SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
@@ -166,3 +168,33 @@ def test_openstreetmap_road_needs_a_route(tmp_path: Path) -> None:
     scenario_file.write_text(f'[road]\nosm = "{ROOT / "tests" / "fixtures" / "small.osm"}"\n')
     with pytest.raises(SpecError, match=r"osm\.toml:2:7: error: an OpenStreetMap road needs 'route'"):
         load_scenario(scenario_file)
+
+
+def test_observing_an_av_does_not_change_the_simulation(tmp_path: Path) -> None:
+    """With SUMO's own model driving, the closed loop only reads: its run is step for step the plain run."""
+    scenario = load_scenario(SHORT)
+    _, steps, vehicle_steps = run_plain(scenario, 2, tmp_path)
+    observed = run_once(scenario, "lc2013", 2, tmp_path)
+    assert observed.status == "done"
+    assert (observed.sim_steps, observed.vehicle_steps) == (steps, vehicle_steps)
+    assert run_plain(scenario, 2, tmp_path, limit_s=5.0)[1] == 51  # a limit stops it: steps up to 5.1 s
+
+
+def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
+    loop = ClosedLoop(None, setup_of("mlca-py"), load_scenario(SHORT), ("av0",))
+    ctrl = load_controller("mlca-py")
+    loop.state["av0"] = state = ctrl.initial
+    inputs = [{"N": k % 3 != 0, "W": k % 2 == 0, "L": k % 5 == 1, "R": k % 7 == 2} for k in range(TRACE_STEPS + 5)]
+    expected = []
+    for k, given in enumerate(inputs):
+        loop.machine("av0", k / 10, Sensed(given, 0, 2, "hw"))
+        after = ctrl.step(state, given)
+        expected.append(
+            {"t": round(k / 10, 3), "state": ctrl.states[state], "inputs": given, "next": ctrl.states[after]}
+        )
+        state = after
+    assert loop.state["av0"] == state and loop.violations == []  # the shipped machine keeps its invariants
+    loop.violation("av0", 2.4, ["I9"])
+    (stored,) = loop.violations
+    assert stored == {"av": "av0", "time_s": 2.4, "invariants": ["I9"], "trace": expected[-TRACE_STEPS:]}
+    assert loop.metrics["av0"].monitor_violations == 1
