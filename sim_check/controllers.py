@@ -115,9 +115,9 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
     if lang == "py":
         module = load_python(generated / "python" / f"{ir.module}_fsm.py", f"_sim_{ir.module}_fsm")
         return Controller(name, ir.states, initial, py=PyMachine(module))
-    build = Path(tempfile.mkdtemp(prefix="mlca-sim-"))
-    library = build / f"lib{ir.module}_fsm.so"
-    ran = build_shared(generated / "c" / f"{ir.module}_fsm.c", library)
-    if ran.returncode != 0:
-        raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
-    return Controller(name, ir.states, initial, c=CMachine(library, ir))
+    with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its file
+        library = Path(build) / f"lib{ir.module}_fsm.so"
+        ran = build_shared(generated / "c" / f"{ir.module}_fsm.c", library)
+        if ran.returncode != 0:
+            raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
+        return Controller(name, ir.states, initial, c=CMachine(library, ir))

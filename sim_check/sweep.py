@@ -25,8 +25,7 @@ from sim_check.scenario import Scenario
 Job = tuple[str, int, int]  # controller, AVs, seed
 
 
-def _worker(scenario: Scenario, jobs: Any, results: Any) -> None:
-    work = Path(tempfile.mkdtemp(prefix="mlca-sim-work-"))
+def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any) -> None:
     while True:
         job = jobs.get()
         if job is None:
@@ -57,14 +56,25 @@ class Sweep:
         self.ctx = mp.get_context("spawn")
         self.results = self.ctx.Queue()
         self.finished_keys: set[Job] = set()
+        self.work: Path | None = None  # the workers' network and route files, removed when the sweep ends
 
     def start_slot(self) -> Slot:
+        assert self.work is not None
         jobs = self.ctx.Queue()
-        process = self.ctx.Process(target=_worker, args=(self.scenario, jobs, self.results), daemon=True)
+        work = Path(tempfile.mkdtemp(prefix="worker-", dir=self.work))
+        process = self.ctx.Process(target=_worker, args=(self.scenario, work, jobs, self.results), daemon=True)
         process.start()
         return Slot(process, jobs)
 
     def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
+        with tempfile.TemporaryDirectory(prefix="mlca-sim-work-") as work:
+            self.work = Path(work)
+            try:
+                return self._run(todo, progress)
+            finally:
+                self.work = None
+
+    def _run(self, todo: list[Job], progress: Any) -> list[RunResult]:
         pending = list(todo)
         slots = [self.start_slot() for _ in range(min(self.jobs_n, len(pending)))]
         finished: list[RunResult] = []

@@ -7,6 +7,7 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -198,3 +199,14 @@ def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
     (stored,) = loop.violations
     assert stored == {"av": "av0", "time_s": 2.4, "invariants": ["I9"], "trace": expected[-TRACE_STEPS:]}
     assert loop.metrics["av0"].monitor_violations == 1
+
+
+def test_a_sweep_leaves_no_files_behind(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    monkeypatch.setenv("TMPDIR", str(scratch))  # the workers' temporary files
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))  # this process's
+    argv = ["sweep", "--controller", "mlca-c,lc2013", "--avs", "1", "--runs", "1", "--jobs", "2"]
+    assert main([*argv, "--db", str(tmp_path / "r.sqlite"), "--scenario", str(SHORT)]) == 0
+    assert len(rows(tmp_path / "r.sqlite", "runs")) == 2
+    assert list(scratch.iterdir()) == []
