@@ -125,10 +125,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                          f"{counts['violations']} monitor violations")  # fmt: skip
         sys.stderr.flush()
 
-    if args.ray:
-        RaySweep(scenario, args.db, args.ray, args.timeout).run(todo, progress)
-    else:
-        Sweep(scenario, args.db, args.jobs, args.timeout).run(todo, progress)
+    try:
+        if args.ray:
+            RaySweep(scenario, args.db, args.ray, args.timeout).run(todo, progress)
+        else:
+            Sweep(scenario, args.db, args.jobs, args.timeout).run(todo, progress)
+    except KeyboardInterrupt:
+        stored = len(db.done(db.connect(args.db)) & set(wanted))
+        print(f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
+              "command with --resume to do the rest", file=sys.stderr)  # fmt: skip
+        return 130
     sys.stderr.write("\n")
     summary = f"{counts['done']} runs done, {counts['failed']} failed, {counts['violations']} monitor violations"
     print(f"{summary}; results in {args.db}")

@@ -8,6 +8,7 @@ from __future__ import annotations
 import logging
 import multiprocessing as mp
 import queue
+import signal
 import socket
 import sys
 import tempfile
@@ -26,6 +27,7 @@ Job = tuple[str, int, int]  # controller, AVs, seed
 
 
 def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle: it stops the workers
     while True:
         job = jobs.get()
         if job is None:
@@ -69,14 +71,18 @@ class Sweep:
     def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
         with tempfile.TemporaryDirectory(prefix="mlca-sim-work-") as work:
             self.work = Path(work)
+            slots: list[Slot] = []
             try:
-                return self._run(todo, progress)
-            finally:
+                return self._run(todo, progress, slots)
+            finally:  # interrupted or not, no worker outlives the sweep (finished ones have exited already)
+                for slot in slots:
+                    slot.process.kill()
+                    slot.process.join(timeout=10)
                 self.work = None
 
-    def _run(self, todo: list[Job], progress: Any) -> list[RunResult]:
+    def _run(self, todo: list[Job], progress: Any, slots: list[Slot]) -> list[RunResult]:
         pending = list(todo)
-        slots = [self.start_slot() for _ in range(min(self.jobs_n, len(pending)))]
+        slots.extend(self.start_slot() for _ in range(min(self.jobs_n, len(pending))))
         finished: list[RunResult] = []
         while pending or any(s.job for s in slots):
             for slot in slots:

@@ -87,6 +87,29 @@ def test_killed_sweep_resumes_without_losing_or_repeating_a_run(tmp_path: Path) 
 
 
 @pytest.mark.slow
+def test_ctrl_c_stops_a_sweep_with_a_message_and_keeps_its_runs(tmp_path: Path) -> None:
+    db, scratch = tmp_path / "r.sqlite", tmp_path / "tmp"
+    scratch.mkdir()
+    argv = [sys.executable, "-m", "sim_check", "sweep", "--controller", "mlca-c", "--avs", "1", "--runs", "8",
+            "--jobs", "2", "--db", str(db), "--scenario", str(SHORT)]  # fmt: skip
+    env = {**os.environ, "TMPDIR": str(scratch)}
+    sweep = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             start_new_session=True)  # fmt: skip
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not (db.exists() and rows(db, "runs")):
+        time.sleep(0.1)
+    os.killpg(sweep.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the whole process group
+    _, err = sweep.communicate(timeout=60)
+    kept = len(rows(db, "runs"))
+    assert sweep.returncode == 130 and 1 <= kept < 8
+    assert "Traceback" not in err
+    assert f"interrupted: {kept} of the 8 runs wanted are stored in {db}; run the same command with --resume" in err
+    assert list(scratch.iterdir()) == []  # the workers are gone and their files with them
+    assert subprocess.run([*argv, "--resume"], cwd=ROOT, capture_output=True, check=False).returncode == 0
+    assert sorted(r[2] for r in rows(db, "runs")) == list(range(8))
+
+
+@pytest.mark.slow
 def test_hung_runs_fail_with_a_reason_and_the_sweep_goes_on(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     db = tmp_path / "r.sqlite"
     argv = ["sweep", "--controller", "mlca-c", "--avs", "1", "--runs", "2", "--jobs", "1", "--timeout", "0.01"]
