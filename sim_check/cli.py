@@ -10,7 +10,7 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from mlca_verify.cli import Parser, write_json
+from mlca_verify.cli import EXIT_INTERRUPTED, Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError
 from sim_check import db
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
@@ -134,7 +134,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         stored = len(db.done(db.connect(args.db)) & set(wanted))
         print(f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
               "command with --resume to do the rest", file=sys.stderr)  # fmt: skip
-        return 130
+        return EXIT_INTERRUPTED
     sys.stderr.write("\n")
     summary = f"{counts['done']} runs done, {counts['failed']} failed, {counts['violations']} monitor violations"
     print(f"{summary}; results in {args.db}")
@@ -161,4 +161,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def entry() -> None:
-    sys.exit(main())
+    try:
+        code = main()
+    except KeyboardInterrupt:  # a single run or a report: nothing half-written is left (mlca_verify.files)
+        print("\ninterrupted", file=sys.stderr)
+        code = EXIT_INTERRUPTED
+    sys.exit(code)

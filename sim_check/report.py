@@ -8,6 +8,7 @@ with fixed metadata so that the same database gives byte-identical files."""
 
 from __future__ import annotations
 
+import io
 import math
 import sqlite3
 from collections import defaultdict
@@ -16,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mlca_verify.files import write_atomic
 from sim_check.controllers import SETUPS
 from sim_check.paper_results import (
     CLAIMS,
@@ -153,9 +155,12 @@ def _pyplot() -> Any:
 
 
 def _save(fig: Any, out: Path, stem: str) -> list[Path]:
+    png, svg = io.BytesIO(), io.BytesIO()
+    fig.savefig(png, format="png", dpi=110, metadata={"Software": None})
+    fig.savefig(svg, format="svg", metadata={"Date": None, "Creator": None})
     paths = [out / f"{stem}.png", out / f"{stem}.svg"]
-    fig.savefig(paths[0], dpi=110, metadata={"Software": None})
-    fig.savefig(paths[1], metadata={"Date": None, "Creator": None})
+    for path, drawn in zip(paths, (png, svg), strict=True):
+        write_atomic(path, drawn.getvalue())
     return paths
 
 
@@ -382,5 +387,5 @@ def write_report(db: Path, out: Path) -> list[Path]:
     figures += collision_figure(data, out)
     figures += cost_figure(data, data.present(), out)
     report = out / "report.md"
-    report.write_text(markdown(data, figures), encoding="utf-8")
+    write_atomic(report, markdown(data, figures))
     return [*figures, report]

@@ -23,6 +23,7 @@ from mlca_verify.emit import emit
 from mlca_verify.errors import MlcaError, ToolError, UsageError
 from mlca_verify.evidence import collect, write_bundle
 from mlca_verify.evidence import now as evidence_now
+from mlca_verify.files import write_atomic
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
@@ -30,6 +31,7 @@ from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
 
 EXIT_OK, EXIT_FINDING, EXIT_USAGE = 0, 1, 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report Ctrl-C
 
 
 class Parser(argparse.ArgumentParser):
@@ -99,7 +101,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def write_text(path: str, text: str) -> None:
     try:
-        Path(path).write_text(text, encoding="utf-8")
+        write_atomic(Path(path), text)
     except OSError as err:
         raise UsageError(f"{path}: error: cannot write: {err.strerror or err}") from None
 
@@ -287,4 +289,7 @@ def entry() -> None:
     except BrokenPipeError:  # the reader went away (`| head`): not an error of ours
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         code = EXIT_OK
+    except KeyboardInterrupt:  # Ctrl-C: output files are written whole or not at all (mlca_verify.files)
+        print("\ninterrupted", file=sys.stderr)
+        code = EXIT_INTERRUPTED
     sys.exit(code)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mlca_verify.codegen.render import c_expr, c_ident, py_expr
+from mlca_verify.files import write_atomic
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Expr, Liveness, Machine, show
 from mlca_verify.spec import LoadedSpec
@@ -194,8 +195,8 @@ def emit(spec: LoadedSpec, results: list[Result], generated: Path, out: Path) ->
             continue
         stem = f"test_{module}_{c_ident(r.prop)}"
         py = out / f"{stem}.py"
-        py.write_text(python_test(spec, r, _module_path(spec, generated, out)), encoding="utf-8")
+        write_atomic(py, python_test(spec, r, _module_path(spec, generated, out)))
         c = out / f"{stem}.c"
-        c.write_text(c_test(spec, r), encoding="utf-8")
+        write_atomic(c, c_test(spec, r))
         written += [py, c]
     return written

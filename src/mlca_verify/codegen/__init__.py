@@ -10,6 +10,7 @@ from mlca_verify import __version__
 from mlca_verify.codegen.ir import MachineIR, build_ir
 from mlca_verify.codegen.render import TEMPLATE_DIR, render
 from mlca_verify.errors import CodegenError
+from mlca_verify.files import write_atomic
 from mlca_verify.logic.graph import Encoding, explore
 from mlca_verify.logic.solver import Solver
 from mlca_verify.spec import LoadedSpec
@@ -51,7 +52,7 @@ def write(files: dict[str, str], out_dir: Path) -> list[tuple[Path, bool]]:
         path.parent.mkdir(parents=True, exist_ok=True)
         changed = not path.exists() or path.read_text(encoding="utf-8") != files[rel]
         if changed:
-            path.write_text(files[rel], encoding="utf-8")
+            write_atomic(path, files[rel])
         result.append((path, changed))
     return result
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from mlca_verify.evidence.collect import Evidence, collect
 from mlca_verify.evidence.page import render_page
+from mlca_verify.files import write_atomic
 
 __all__ = ["Evidence", "collect", "now", "write_bundle"]
 
@@ -23,6 +24,6 @@ def now() -> str:
 def write_bundle(ev: Evidence, out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     json_path, html_path = out / "evidence.json", out / "index.html"
-    json_path.write_text(json.dumps(ev.data, indent=2) + "\n", encoding="utf-8")
-    html_path.write_text(render_page(ev.data), encoding="utf-8")
+    write_atomic(json_path, json.dumps(ev.data, indent=2) + "\n")
+    write_atomic(html_path, render_page(ev.data))
     return [json_path, html_path]
