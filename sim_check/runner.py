@@ -248,13 +248,13 @@ class ClosedLoop:
         ctrl = self.ctrl
         assert ctrl is not None
         old, inputs = self.state[av], sensed.inputs
-        new = ctrl.step(old, inputs)
+        new, holds = ctrl.advance(old, inputs)
         self.state[av] = new
         name = ctrl.states[new]
         state_s = self.metrics[av].state_s
         state_s[name] = state_s.get(name, 0.0) + self.dt
         self.history[av].append((t, old, inputs, new))
-        if not ctrl.holds(new, inputs):
+        if not holds:
             self.violation(av, t, ctrl.failing(new, inputs))
         return 1 if name == "MOVING_LEFT" else -1 if name == "MOVING_RIGHT" else 0
 

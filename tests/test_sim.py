@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import sqlite3
@@ -233,3 +234,13 @@ def test_a_sweep_leaves_no_files_behind(tmp_path: Path, monkeypatch: pytest.Monk
     assert main([*argv, "--db", str(tmp_path / "r.sqlite"), "--scenario", str(SHORT)]) == 0
     assert len(rows(tmp_path / "r.sqlite", "runs")) == 2
     assert list(scratch.iterdir()) == []
+
+
+@pytest.mark.parametrize("machine", ["mlca", "mlca_r"])
+def test_the_c_controllers_one_call_a_step_agrees_with_the_python_machine(machine: str) -> None:
+    c, py = load_controller(f"{machine}-c"), load_controller(f"{machine}-py")
+    assert c.inputs == py.inputs and c.states == py.states
+    for state in range(len(c.states)):
+        for values in itertools.product((False, True), repeat=len(c.inputs)):
+            inputs = dict(zip(c.inputs, values, strict=True))
+            assert c.advance(state, inputs) == py.advance(state, inputs), (state, inputs)
