@@ -61,8 +61,15 @@ def test_killed_sweep_resumes_without_losing_or_repeating_a_run(tmp_path: Path) 
     db = tmp_path / "r.sqlite"
     argv = [sys.executable, "-m", "sim_check", "sweep", "--controller", "mlca-c", "--avs", "1", "--runs", "6",
             "--jobs", "1", "--db", str(db), "--scenario", str(SHORT)]  # fmt: skip
+    scratch = tmp_path / "tmp"  # a killed sweep cannot remove its temporary files: keep them out of /tmp
+    scratch.mkdir()
     sweep = subprocess.Popen(
-        argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        argv,
+        cwd=ROOT,
+        env={**os.environ, "TMPDIR": str(scratch)},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
     )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
