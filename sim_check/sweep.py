@@ -12,6 +12,7 @@ import signal
 import socket
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from dataclasses import dataclass
@@ -65,7 +66,14 @@ class Sweep:
         jobs = self.ctx.Queue()
         work = Path(tempfile.mkdtemp(prefix="worker-", dir=self.work))
         process = self.ctx.Process(target=_worker, args=(self.scenario, work, jobs, self.results), daemon=True)
-        process.start()
+        if threading.current_thread() is threading.main_thread():  # the worker starts with Ctrl-C ignored,
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # even while it is still importing
+            try:
+                process.start()
+            finally:
+                signal.signal(signal.SIGINT, previous)
+        else:
+            process.start()
         return Slot(process, jobs)
 
     def run(self, todo: list[Job], progress: Any) -> list[RunResult]:

@@ -32,6 +32,14 @@ def rows(db: Path, table: str, skip: tuple[str, ...] = ("wall_s",)) -> list[tupl
         return [tuple(r[k] for k in keep) for r in cursor.fetchall()]
 
 
+def stored(db: Path) -> int:
+    """Runs a sweep running in another process has stored so far (none while it is still creating the file)."""
+    try:
+        return len(rows(db, "runs")) if db.exists() else 0
+    except sqlite3.OperationalError:  # the file exists, its tables not yet
+        return 0
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("machine", ["mlca", "mlca_r"])
 def test_python_and_c_controllers_drive_identically(machine: str, tmp_path: Path) -> None:
@@ -73,7 +81,7 @@ def test_killed_sweep_resumes_without_losing_or_repeating_a_run(tmp_path: Path) 
     )
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
-        if db.exists() and len(rows(db, "runs")) >= 2:
+        if stored(db) >= 2:
             break
         time.sleep(0.2)
     os.killpg(sweep.pid, signal.SIGKILL)
@@ -104,7 +112,7 @@ def test_ctrl_c_stops_a_sweep_with_a_message_and_keeps_its_runs(tmp_path: Path) 
     sweep = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              start_new_session=True)  # fmt: skip
     deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and not (db.exists() and rows(db, "runs")):
+    while time.monotonic() < deadline and not stored(db):
         time.sleep(0.1)
     os.killpg(sweep.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the whole process group
     _, err = sweep.communicate(timeout=60)
