@@ -29,6 +29,7 @@ Job = tuple[str, int, int]  # controller, AVs, seed
 
 def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle: it stops the workers
+    tempfile.tempdir = str(work)  # the worker's own temporary files (the compiled controller) go with its folder
     while True:
         job = jobs.get()
         if job is None:
