@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mlca_verify.codegen import machine_ir
-from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.conform.targets import PyMachine, build_shared, load_python
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.spec import load_spec
@@ -98,20 +97,20 @@ int {module}_sim_advance(int state, unsigned bits)
 
 
 class CAdvance:
-    """The generated C of a machine with the adapter above, loaded with ctypes."""
+    """The generated C of a machine with the adapter above, loaded with ctypes; `names` are the inputs in the
+    struct's field order."""
 
-    def __init__(self, library: Path, ir: MachineIR) -> None:
-        self._advance = getattr(ctypes.CDLL(str(library)), f"{ir.module}_sim_advance")
+    def __init__(self, library: Path, module: str, names: tuple[str, ...]) -> None:
+        self._advance = getattr(ctypes.CDLL(str(library)), f"{module}_sim_advance")
         self._advance.argtypes = [ctypes.c_int, ctypes.c_uint]
         self._advance.restype = ctypes.c_int
-        self._names = tuple(i.name for i in ir.inputs)
-        self._bits: dict[tuple[bool, ...], int] = {}
+        self._names = names
 
     def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
-        key = tuple([inputs[name] for name in self._names])
-        bits = self._bits.get(key)
-        if bits is None:
-            bits = self._bits[key] = sum(1 << k for k, value in enumerate(key) if value)
+        bits = 0
+        for k, name in enumerate(self._names):
+            if inputs[name]:
+                bits |= 1 << k
         answer = self._advance(state, bits)
         return answer & 0xFFFF, bool(answer >> 16)
 
@@ -136,9 +135,6 @@ class Controller:
         new = self.py.step(state, inputs)
         return new, not self.py.invariants(new, inputs)
 
-    def step(self, state: int, inputs: dict[str, bool]) -> int:
-        return self.advance(state, inputs)[0]
-
     def failing(self, state: int, inputs: dict[str, bool]) -> list[str]:
         """The invariants failing in `state`, reached with `inputs`, where the monitor said one fails: by id from
         the Python machine; the C monitor says only that one does."""
@@ -157,7 +153,7 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
     if lang == "py":
         module = load_python(generated / "python" / f"{ir.module}_fsm.py", f"_sim_{ir.module}_fsm")
         return Controller(name, ir.states, names, initial, py=PyMachine(module))
-    unpack = "\n".join(f"    in.{i.name} = (bits >> {k}u) & 1u;" for k, i in enumerate(ir.inputs))
+    unpack = "\n".join(f"    in.{name} = (bits >> {k}u) & 1u;" for k, name in enumerate(names))
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
         adapter = Path(build) / f"{ir.module}_sim_advance.c"
         adapter.write_text(ADVANCE_C.format(module=ir.module, unpack=unpack), encoding="utf-8")
@@ -166,4 +162,4 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
         ran = build_shared(c_dir / f"{ir.module}_fsm.c", library, ("-I", str(c_dir), str(adapter)))
         if ran.returncode != 0:
             raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
-        return Controller(name, ir.states, names, initial, c=CAdvance(library, ir))
+        return Controller(name, ir.states, names, initial, c=CAdvance(library, ir.module, names))

@@ -260,7 +260,8 @@ class ClosedLoop:
 
     def violation(self, av: str, t: float, failing: list[str]) -> None:
         """Store a runtime-monitor violation with the steps that led to it."""
-        names = self.ctrl.states if self.ctrl else ()
+        assert self.ctrl is not None
+        names = self.ctrl.states
         trace = [
             {"t": round(when, 3), "state": names[old], "inputs": inputs, "next": names[new]}
             for when, old, inputs, new in self.history[av]

@@ -228,7 +228,7 @@ def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
     expected = []
     for k, given in enumerate(inputs):
         loop.machine("av0", k / 10, Sensed(given, 0, 2, "hw"))
-        after = ctrl.step(state, given)
+        after, _ = ctrl.advance(state, given)
         expected.append(
             {"t": round(k / 10, 3), "state": ctrl.states[state], "inputs": given, "next": ctrl.states[after]}
         )

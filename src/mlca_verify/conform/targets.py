@@ -8,7 +8,6 @@ import itertools
 import sys
 from pathlib import Path
 from types import ModuleType
-from typing import Any
 
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.conform.tools import C_FLAGS, Ran, run
@@ -57,18 +56,9 @@ class CMachine:
         self._hold = getattr(self.lib, f"{ir.module}_invariants_hold")
         self._hold.argtypes = [self.Inputs, ctypes.c_int]
         self._hold.restype = ctypes.c_bool
-        self._names = tuple(i.name for i in ir.inputs)
-        self._structs: dict[tuple[bool, ...], Any] = {}  # one struct per valuation: C takes it by value
-
-    def _struct(self, inputs: dict[str, bool]) -> Any:
-        key = tuple([inputs[name] for name in self._names])
-        struct = self._structs.get(key)
-        if struct is None:
-            struct = self._structs[key] = self.Inputs(**inputs)
-        return struct
 
     def step(self, state: int, inputs: dict[str, bool]) -> int:
-        return int(self._step(state, self._struct(inputs)))
+        return int(self._step(state, self.Inputs(**inputs)))
 
     def invariants_hold(self, state: int, inputs: dict[str, bool]) -> bool:
-        return bool(self._hold(self._struct(inputs), state))
+        return bool(self._hold(self.Inputs(**inputs), state))
