@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import operator
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,14 +80,14 @@ def setup_of(name: str) -> Setup:
     return SETUPS[name]
 
 
-# The closed loop's one call into the generated C a step: the inputs packed into bits (bit k is the k-th field of
-# the inputs struct), the generated step, and the generated monitor on the state reached, answered as one int.
-# One call with two integers costs ctypes far less than two calls passing the struct by value.
+# The closed loop's one call into the generated C a step: the inputs as int arguments (argument k is the k-th
+# field of the inputs struct), the generated step, and the generated monitor on the state reached, answered as one
+# int. One call with plain ints costs ctypes far less than two calls passing the struct by value.
 ADVANCE_C = """#include "{module}_fsm.h"
 
-int {module}_sim_advance(int state, unsigned bits);
+int {module}_sim_advance(int state, {params});
 
-int {module}_sim_advance(int state, unsigned bits)
+int {module}_sim_advance(int state, {params})
 {{
     {module}_inputs_t in;
     {module}_state_t next;
@@ -96,44 +98,48 @@ int {module}_sim_advance(int state, unsigned bits)
 """
 
 
+def advance_c(module: str, names: tuple[str, ...]) -> str:
+    """The adapter's source for a machine whose inputs struct has the fields `names`, in order."""
+    params = ", ".join(f"int i{k}" for k in range(len(names)))
+    unpack = "\n".join(f"    in.{name} = i{k} != 0;" for k, name in enumerate(names))
+    return ADVANCE_C.format(module=module, params=params, unpack=unpack)
+
+
 class CAdvance:
     """The generated C of a machine with the adapter above, loaded with ctypes; `names` are the inputs in the
-    struct's field order."""
+    struct's field order. No argtypes: ctypes passes Python ints and bools as C ints by default, and declared
+    argtypes would add a converter call per argument."""
 
     def __init__(self, library: Path, module: str, names: tuple[str, ...]) -> None:
         self._advance = getattr(ctypes.CDLL(str(library)), f"{module}_sim_advance")
-        self._advance.argtypes = [ctypes.c_int, ctypes.c_uint]
         self._advance.restype = ctypes.c_int
-        self._names = names
+        self._values: Callable[[dict[str, bool]], tuple[bool, ...]] = (
+            operator.itemgetter(*names) if len(names) > 1 else lambda inputs: (inputs[names[0]],)
+        )
 
     def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
-        bits = 0
-        for k, name in enumerate(self._names):
-            if inputs[name]:
-                bits |= 1 << k
-        answer = self._advance(state, bits)
+        answer = self._advance(state, *self._values(inputs))
         return answer & 0xFFFF, bool(answer >> 16)
+
+
+def python_advance(machine: PyMachine, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
+    """One step of the generated Python machine and its monitor on the state reached."""
+    new = machine.step(state, inputs)
+    return new, not machine.invariants(new, inputs)
 
 
 @dataclass
 class Controller:
-    """A generated machine behind one interface: states are the generated enum's integers."""
+    """A generated machine behind one interface: states are the generated enum's integers. `advance` is one step of
+    the machine and its runtime monitor: the next state, and whether every invariant holds there (bound at load
+    to the C adapter or to the Python machine, so that a step costs the loop one call)."""
 
     name: str
     states: tuple[str, ...]
     inputs: tuple[str, ...]
     initial: int
+    advance: Callable[[int, dict[str, bool]], tuple[int, bool]]
     py: PyMachine | None = None
-    c: CAdvance | None = None
-
-    def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
-        """One step of the machine and its runtime monitor: the next state, and whether every invariant holds
-        there."""
-        if self.c:
-            return self.c.advance(state, inputs)
-        assert self.py is not None
-        new = self.py.step(state, inputs)
-        return new, not self.py.invariants(new, inputs)
 
     def failing(self, state: int, inputs: dict[str, bool]) -> list[str]:
         """The invariants failing in `state`, reached with `inputs`, where the monitor said one fails: by id from
@@ -152,14 +158,14 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
     initial, names = ir.states.index(ir.initial), tuple(i.name for i in ir.inputs)
     if lang == "py":
         module = load_python(generated / "python" / f"{ir.module}_fsm.py", f"_sim_{ir.module}_fsm")
-        return Controller(name, ir.states, names, initial, py=PyMachine(module))
-    unpack = "\n".join(f"    in.{name} = (bits >> {k}u) & 1u;" for k, name in enumerate(names))
+        py = PyMachine(module)
+        return Controller(name, ir.states, names, initial, functools.partial(python_advance, py), py=py)
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
         adapter = Path(build) / f"{ir.module}_sim_advance.c"
-        adapter.write_text(ADVANCE_C.format(module=ir.module, unpack=unpack), encoding="utf-8")
+        adapter.write_text(advance_c(ir.module, names), encoding="utf-8")
         library = Path(build) / f"lib{ir.module}_fsm.so"
         c_dir = generated / "c"
         ran = build_shared(c_dir / f"{ir.module}_fsm.c", library, ("-I", str(c_dir), str(adapter)))
         if ran.returncode != 0:
             raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
-        return Controller(name, ir.states, names, initial, c=CAdvance(library, ir.module, names))
+        return Controller(name, ir.states, names, initial, CAdvance(library, ir.module, names).advance)

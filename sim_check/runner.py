@@ -22,7 +22,7 @@ from typing import Any
 from sim_check import mobil
 from sim_check.controllers import Controller, Setup, load_controller, setup_of
 from sim_check.scenario import Scenario, build, sumo_bin
-from sim_check.sensing import Claim, Leader, Sensed, decides_on, lane_end, sense
+from sim_check.sensing import Claim, Leader, Network, Sensed, decides_on, sense
 
 MARKS_KM = (5, 10, 15, 20)
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
@@ -112,11 +112,42 @@ class Need:
     deferred: bool = False
 
 
+class Reads:
+    """The SUMO getters the loop calls every step, bound once per run. Where `sumo` is libsumo, its compiled
+    functions are bound directly: libsumo's Python methods only forward to them, and the extra Python call per
+    read is a good part of what the loop costs beside SUMO's own step. The values are the same, but for getLeader's
+    "no leader", ("", -1.0) here where libsumo's method returns None."""
+
+    def __init__(self, sumo: Any) -> None:
+        compiled = getattr(sumo, "_libsumo", None)
+
+        def bind(domain: str, name: str) -> Any:
+            if compiled is not None:
+                return getattr(compiled, f"{domain}_{name}")
+            return getattr(getattr(sumo, domain), name)
+
+        self.departed = bind("simulation", "getDepartedIDList")
+        self.arrived = bind("simulation", "getArrivedIDList")
+        self.collisions = bind("simulation", "getCollisions")
+        self.road = bind("vehicle", "getRoadID")
+        self.lane = bind("vehicle", "getLaneIndex")
+        self.position = bind("vehicle", "getLanePosition")
+        self.distance = bind("vehicle", "getDistance")
+        self.acceleration = bind("vehicle", "getAcceleration")
+        self.speed = bind("vehicle", "getSpeed")
+        self.leader = bind("vehicle", "getLeader")
+        self.follower = bind("vehicle", "getFollower")
+        self.edge_vehicles = bind("edge", "getLastStepVehicleNumber")
+        self.edge_speed = bind("edge", "getLastStepMeanSpeed")
+
+
 class ClosedLoop:
     """The state of one run between steps."""
 
     def __init__(self, sumo: Any, setup: Setup, scenario: Scenario, av_ids: tuple[str, ...]) -> None:
         self.sumo = sumo
+        self.read = Reads(sumo)
+        self.network = Network(sumo)
         self.setup = setup
         self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
         self.scenario = scenario
@@ -134,7 +165,9 @@ class ClosedLoop:
         }
         self.violations: list[dict[str, Any]] = []
         self.pairs: set[tuple[str, str]] = set()
-        self.digest = hashlib.sha256()
+        # (AV, edge, lane, position) of every AV every step: hashed once at the end (trajectory_sha256), in one
+        # tight pass rather than a formatting and a hash call between two SUMO steps
+        self.trail: list[tuple[str, str, int, float]] = []
         self.dt = scenario.traffic.step_s
         self.steps = 0
         self.bg_speed = [0.0, 0]  # sum of sampled speeds, number of samples
@@ -142,14 +175,14 @@ class ClosedLoop:
         self.arrived = 0
 
     def step(self, t: float) -> None:
-        sumo = self.sumo
-        for av in sumo.simulation.getDepartedIDList():
+        read = self.read
+        for av in read.departed():
             if av in self.metrics:
                 if self.setup.kind != "sumo":
-                    sumo.vehicle.setLaneChangeMode(av, 0)
+                    self.sumo.vehicle.setLaneChangeMode(av, 0)
                 self.state[av] = self.ctrl.initial if self.ctrl else 0
                 self.metrics[av].depart_s = t
-        for av in sumo.simulation.getArrivedIDList():
+        for av in read.arrived():
             if av in self.metrics:
                 self.metrics[av].arrive_s = t
                 self.arrived += 1
@@ -169,21 +202,20 @@ class ClosedLoop:
 
     def sample(self, av_speeds: float, avs: int) -> None:
         """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs)."""
-        edge = self.sumo.edge
         if not self.edges:
-            self.edges = [e for e in edge.getIDList() if not e.startswith(":")]
+            self.edges = [e for e in self.sumo.edge.getIDList() if not e.startswith(":")]
         total, count = -av_speeds, -avs
         for e in self.edges:
-            n = edge.getLastStepVehicleNumber(e)
+            n = self.read.edge_vehicles(e)
             if n:
-                total += edge.getLastStepMeanSpeed(e) * n
+                total += self.read.edge_speed(e) * n
                 count += n
         if count > 0:
             self.bg_speed[0] += total
             self.bg_speed[1] += count
 
     def collisions(self) -> None:
-        for c in self.sumo.simulation.getCollisions():
+        for c in self.read.collisions():
             pair = tuple(sorted((c.collider, c.victim)))
             if pair in self.pairs:
                 continue
@@ -193,9 +225,9 @@ class ClosedLoop:
                     self.metrics[vid].collisions += 1
 
     def observe(self, av: str) -> tuple[tuple[str, int, float], Leader, float]:
-        vehicle, m = self.sumo.vehicle, self.metrics[av]
-        edge, lane, pos = vehicle.getRoadID(av), vehicle.getLaneIndex(av), vehicle.getLanePosition(av)
-        m.distance_m = vehicle.getDistance(av)
+        read, m = self.read, self.metrics[av]
+        edge, lane, pos = read.road(av), read.lane(av), read.position(av)
+        m.distance_m = read.distance(av)
         before = self.place.get(av)
         if before is not None and before[0] == edge and before[1] != lane and not edge.startswith(":"):
             m.lane_changes.append(m.distance_m)
@@ -204,26 +236,37 @@ class ClosedLoop:
                 need.moved = True
                 m.needs_moved += 1
         self.place[av] = (edge, lane)
-        braking = vehicle.getAcceleration(av) < -EMERGENCY_DECEL
+        braking = read.acceleration(av) < -EMERGENCY_DECEL
         if braking and not self.braking.get(av, False):
             m.emergency_brakes += 1
         self.braking[av] = braking
-        speed = vehicle.getSpeed(av)
-        found = vehicle.getLeader(av, 250.0)
+        speed = read.speed(av)
+        found = read.leader(av, 250.0)
         leader: Leader = found if found and found[0] else None
         if leader is not None and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
-        self.mingap(av, leader, vehicle.getFollower(av, 50.0))
-        self.digest.update(f"{av}|{edge}|{lane}|{pos:.3f}\n".encode())
+        self.mingap(av, leader, read.follower(av, 50.0))
+        self.trail.append((av, edge, lane, pos))
         return (edge, lane, pos), leader, speed
+
+    def trajectory_sha256(self) -> str:
+        """The hash of every AV's edge, lane and position (to the millimetre), step by step."""
+        lines = "".join(f"{av}|{edge}|{lane}|{pos:.3f}\n" for av, edge, lane, pos in self.trail)
+        return hashlib.sha256(lines.encode()).hexdigest()
 
     def mingap(self, av: str, leader: Leader, follower: tuple[str, float]) -> None:
         """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
         the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact."""
-        now = {vid for vid, gap in (leader or ("", 0.0), follower) if vid and gap < 0.0}
-        self.metrics[av].mingap_contacts += len(now - self.close[av])
-        self.close[av] = now
+        now = set()
+        if leader is not None and leader[1] < 0.0:
+            now.add(leader[0])
+        if follower[0] and follower[1] < 0.0:
+            now.add(follower[0])
+        before = self.close[av]
+        if now or before:
+            self.metrics[av].mingap_contacts += len(now - before)
+            self.close[av] = now
 
     def decide(
         self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
@@ -234,7 +277,7 @@ class ClosedLoop:
         if kind == "mobil":
             self.decide_mobil(av, t, where, leader)
             return
-        sensed = sense(self.sumo, av, self.target, claims, where, leader=leader, speed=speed)
+        sensed = sense(self.sumo, av, self.target, claims, where, network=self.network, leader=leader, speed=speed)
         if sensed is None:
             return
         # "without" goes wherever N points (the direction is 0 exactly when N does not hold)
@@ -298,8 +341,8 @@ class ClosedLoop:
         edge, lane, pos = where
         if not decides_on(edge):
             return
-        lanes = self.sumo.edge.getLaneNumber(edge)
-        end = lane_end(self.sumo, edge, lane, pos)
+        lanes = self.network.lanes(edge)
+        end = self.network.lane_end(edge, lane, pos)
         lowest = 1 if edge == "acc" and lane > 0 else 0
         side = mobil.decide(self.sumo, av, lane, lanes, leader=leader, lane_end=end, lowest=lowest)
         if side:
@@ -355,12 +398,12 @@ def run_once(
                 break
     finally:
         libsumo.close()
-    result.wall_s = time.perf_counter() - start
     result.collisions = len(loop.pairs)
     result.bg_mean_speed_ms = loop.bg_speed[0] / loop.bg_speed[1] if loop.bg_speed[1] else None
     result.metrics = [loop.metrics[av] for av in built.av_ids]
     result.violations = loop.violations
-    result.trajectory_sha256 = loop.digest.hexdigest()
+    result.trajectory_sha256 = loop.trajectory_sha256()
+    result.wall_s = time.perf_counter() - start
     return result
 
 

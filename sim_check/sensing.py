@@ -57,9 +57,31 @@ def decides_on(edge: str) -> bool:
     return edge != "ramp" and not edge.startswith(":")
 
 
-def lane_end(sumo: Any, edge: str, lane: int, pos: float) -> float:
-    """Metres to the end of the AV's lane: the acceleration lane (lane 0 of `acc`) ends, every other continues."""
-    return sumo.lane.getLength(f"{edge}_{lane}") - pos if edge == "acc" and lane == 0 else math.inf
+class Network:
+    """What the AVs read of the network itself, which does not change during a run: lane counts and lane lengths,
+    read from SUMO once per edge or lane and kept (one per run: another run may load another network)."""
+
+    def __init__(self, sumo: Any) -> None:
+        self._sumo = sumo
+        self._lanes: dict[str, int] = {}
+        self._lengths: dict[str, float] = {}
+
+    def lanes(self, edge: str) -> int:
+        """The number of lanes of `edge`."""
+        lanes = self._lanes.get(edge)
+        if lanes is None:
+            lanes = self._lanes[edge] = self._sumo.edge.getLaneNumber(edge)
+        return lanes
+
+    def lane_end(self, edge: str, lane: int, pos: float) -> float:
+        """Metres to the end of the AV's lane: the acceleration lane (lane 0 of `acc`) ends, every other
+        continues."""
+        if edge != "acc" or lane != 0:
+            return math.inf
+        length = self._lengths.get(edge)
+        if length is None:
+            length = self._lengths[edge] = self._sumo.lane.getLength(f"{edge}_{lane}")
+        return length - pos
 
 
 def wanted_lane(edge: str, target: int, lanes: int) -> int:
@@ -111,16 +133,17 @@ def sense(
     claims: list[Claim],
     where: tuple[str, int, float],
     *,
+    network: Network,
     leader: Leader,
     speed: float,
 ) -> Sensed | None:
     """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction).
     `where` is the AV's edge, lane index and position on the lane, `leader` its leader and `speed` its speed,
-    already read this step."""
+    already read this step; `network` is the run's `Network`."""
     edge, lane, pos = where
     if not decides_on(edge):
         return None
-    lanes = sumo.edge.getLaneNumber(edge)
+    lanes = network.lanes(edge)
     wanted = wanted_lane(edge, target, lanes)
     direction = (wanted > lane) - (wanted < lane)
     if direction == 0 and leader is not None and _slow(sumo, leader[0], leader[1], av):
@@ -135,7 +158,7 @@ def sense(
     right = direction < 0 and lane > 0 and not _claimed(claims, av, edge, lane - 1, pos)
     inputs = {
         "N": direction != 0,
-        "W": lane_end(sumo, edge, lane, pos) >= URGENT_M,
+        "W": network.lane_end(edge, lane, pos) >= URGENT_M,
         "L": left and _gap_ok(sumo, av, +1, speed),
         "R": right and _gap_ok(sumo, av, -1, speed),
     }

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import signal
 import sqlite3
@@ -17,9 +18,9 @@ import pytest
 from mlca_verify.errors import SpecError
 from sim_check.cli import main
 from sim_check.controllers import load_controller, setup_of
-from sim_check.runner import TRACE_STEPS, ClosedLoop, run_once, run_plain
-from sim_check.scenario import load_scenario
-from sim_check.sensing import Sensed
+from sim_check.runner import TRACE_STEPS, ClosedLoop, Reads, run_once, run_plain, sumo_args
+from sim_check.scenario import build, load_scenario
+from sim_check.sensing import Network, Sensed
 
 ROOT = Path(__file__).parent.parent
 SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
@@ -220,8 +221,44 @@ def test_observing_an_av_does_not_change_the_simulation(tmp_path: Path) -> None:
     assert run_plain(scenario, 2, tmp_path, limit_s=5.0)[1] == 51  # a limit stops it: steps up to 5.1 s
 
 
+def test_the_loops_bound_reads_give_what_libsumos_methods_give(tmp_path: Path) -> None:
+    """The loop reads libsumo's compiled functions directly (and caches the network's lane counts and lengths):
+    every value, step by step, is the one libsumo's own methods return."""
+    import libsumo
+
+    scenario = load_scenario(SHORT).with_avs(3)
+    built = build(scenario, 1, tmp_path, "")
+    libsumo.start(sumo_args(scenario, built.net, built.routes, 1))
+    try:
+        read, network, v, seen = Reads(libsumo), Network(libsumo), libsumo.vehicle, set()
+        assert read.road is libsumo._libsumo.vehicle_getRoadID  # bound past libsumo's Python methods
+        while len(seen) < 3 or libsumo.simulation.getMinExpectedNumber() > 0:
+            libsumo.simulationStep()
+            assert read.departed() == libsumo.simulation.getDepartedIDList()
+            assert read.arrived() == libsumo.simulation.getArrivedIDList()
+            for av in set(built.av_ids) & set(v.getIDList()):
+                seen.add(av)
+                edge, lane = read.road(av), read.lane(av)
+                assert (edge, lane) == (v.getRoadID(av), v.getLaneIndex(av))
+                assert read.position(av) == v.getLanePosition(av) and read.distance(av) == v.getDistance(av)
+                assert read.speed(av) == v.getSpeed(av) and read.acceleration(av) == v.getAcceleration(av)
+                assert read.leader(av, 250.0) == (v.getLeader(av, 250.0) or ("", -1.0))
+                assert read.follower(av, 50.0) == v.getFollower(av, 50.0)
+                if not edge.startswith(":"):
+                    assert network.lanes(edge) == libsumo.edge.getLaneNumber(edge)
+                    end = libsumo.lane.getLength(f"{edge}_{lane}") - read.position(av)
+                    assert network.lane_end(edge, lane, read.position(av)) == (
+                        end if (edge, lane) == ("acc", 0) else math.inf
+                    )
+        assert seen == set(built.av_ids)
+    finally:
+        libsumo.close()
+
+
 def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
-    loop = ClosedLoop(None, setup_of("mlca-py"), load_scenario(SHORT), ("av0",))
+    import libsumo  # not started: the machine's steps read nothing from SUMO
+
+    loop = ClosedLoop(libsumo, setup_of("mlca-py"), load_scenario(SHORT), ("av0",))
     ctrl = load_controller("mlca-py")
     loop.state["av0"] = state = ctrl.initial
     inputs = [{"N": k % 3 != 0, "W": k % 2 == 0, "L": k % 5 == 1, "R": k % 7 == 2} for k in range(TRACE_STEPS + 5)]
