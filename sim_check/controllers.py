@@ -85,9 +85,9 @@ def setup_of(name: str) -> Setup:
 # int. One call with plain ints costs ctypes far less than two calls passing the struct by value.
 ADVANCE_C = """#include "{module}_fsm.h"
 
-int {module}_sim_advance(int state, {params});
+int {module}_sim_advance(int state{params});
 
-int {module}_sim_advance(int state, {params})
+int {module}_sim_advance(int state{params})
 {{
     {module}_inputs_t in;
     {module}_state_t next;
@@ -100,7 +100,7 @@ int {module}_sim_advance(int state, {params})
 
 def advance_c(module: str, names: tuple[str, ...]) -> str:
     """The adapter's source for a machine whose inputs struct has the fields `names`, in order."""
-    params = ", ".join(f"int i{k}" for k in range(len(names)))
+    params = "".join(f", int i{k}" for k in range(len(names)))
     unpack = "\n".join(f"    in.{name} = i{k} != 0;" for k, name in enumerate(names))
     return ADVANCE_C.format(module=module, params=params, unpack=unpack)
 
@@ -114,7 +114,7 @@ class CAdvance:
         self._advance = getattr(ctypes.CDLL(str(library)), f"{module}_sim_advance")
         self._advance.restype = ctypes.c_int
         self._values: Callable[[dict[str, bool]], tuple[bool, ...]] = (
-            operator.itemgetter(*names) if len(names) > 1 else lambda inputs: (inputs[names[0]],)
+            operator.itemgetter(*names) if len(names) > 1 else lambda inputs: tuple(inputs[n] for n in names)
         )
 
     def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:

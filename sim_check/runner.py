@@ -189,7 +189,9 @@ class ClosedLoop:
                 self.state.pop(av, None)
                 if self.need.pop(av, None) is not None:
                     self.metrics[av].needs_open += 1
-        self.collisions()
+        collisions = read.collisions()
+        if collisions:
+            self.collide(collisions)
         claims: list[Claim] = []
         speeds = 0.0
         for av in sorted(self.state):
@@ -214,8 +216,9 @@ class ClosedLoop:
             self.bg_speed[0] += total
             self.bg_speed[1] += count
 
-    def collisions(self) -> None:
-        for c in self.read.collisions():
+    def collide(self, collisions: Any) -> None:
+        """Count the colliding pairs SUMO reports this step (a pair is counted once, however long it touches)."""
+        for c in collisions:
             pair = tuple(sorted((c.collider, c.victim)))
             if pair in self.pairs:
                 continue
@@ -246,7 +249,9 @@ class ClosedLoop:
         if leader is not None and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
-        self.mingap(av, leader, read.follower(av, 50.0))
+        follower = read.follower(av, 50.0)  # ("", -1.0) when there is none
+        if (leader is not None and leader[1] < 0.0) or (follower[1] < 0.0 and follower[0]) or self.close[av]:
+            self.mingap(av, leader, follower)
         self.trail.append((av, edge, lane, pos))
         return (edge, lane, pos), leader, speed
 
@@ -258,15 +263,13 @@ class ClosedLoop:
     def mingap(self, av: str, leader: Leader, follower: tuple[str, float]) -> None:
         """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
         the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact."""
-        now = set()
+        now: set[str] = set()
         if leader is not None and leader[1] < 0.0:
             now.add(leader[0])
         if follower[0] and follower[1] < 0.0:
             now.add(follower[0])
-        before = self.close[av]
-        if now or before:
-            self.metrics[av].mingap_contacts += len(now - before)
-            self.close[av] = now
+        self.metrics[av].mingap_contacts += len(now - self.close[av])
+        self.close[av] = now
 
     def decide(
         self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
