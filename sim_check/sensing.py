@@ -78,9 +78,10 @@ class Network:
         continues."""
         if edge != "acc" or lane != 0:
             return math.inf
-        length = self._lengths.get(edge)
+        lane_id = f"{edge}_{lane}"
+        length = self._lengths.get(lane_id)
         if length is None:
-            length = self._lengths[edge] = self._sumo.lane.getLength(f"{edge}_{lane}")
+            length = self._lengths[lane_id] = self._sumo.lane.getLength(lane_id)
         return length - pos
 
 
