@@ -249,9 +249,7 @@ class ClosedLoop:
         if leader is not None and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
             m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
-        follower = read.follower(av, 50.0)  # ("", -1.0) when there is none
-        if (leader is not None and leader[1] < 0.0) or (follower[1] < 0.0 and follower[0]) or self.close[av]:
-            self.mingap(av, leader, follower)
+        self.mingap(av, leader, read.follower(av, 50.0))
         self.trail.append((av, edge, lane, pos))
         return (edge, lane, pos), leader, speed
 
@@ -262,14 +260,17 @@ class ClosedLoop:
 
     def mingap(self, av: str, leader: Leader, follower: tuple[str, float]) -> None:
         """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
-        the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact."""
+        the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact.
+        `follower` is ("", -1.0) when there is none."""
         now: set[str] = set()
         if leader is not None and leader[1] < 0.0:
             now.add(leader[0])
         if follower[0] and follower[1] < 0.0:
             now.add(follower[0])
-        self.metrics[av].mingap_contacts += len(now - self.close[av])
-        self.close[av] = now
+        before = self.close[av]
+        if now or before:  # most steps have no contact now nor in the step before
+            self.metrics[av].mingap_contacts += len(now - before)
+            self.close[av] = now
 
     def decide(
         self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
