@@ -80,6 +80,9 @@ def setup_of(name: str) -> Setup:
     return SETUPS[name]
 
 
+HOLDS = 0x10000  # the bit of a packed answer that says every invariant holds in the state reached
+STATE_BITS = 0xFFFF  # the bits of a packed answer that are the state reached
+
 # The closed loop's one call into the generated C a step: the inputs as int arguments (argument k is the k-th
 # field of the inputs struct), the generated step, and the generated monitor on the state reached, answered as one
 # int. One call with plain ints costs ctypes far less than two calls passing the struct by value.
@@ -93,7 +96,7 @@ int {module}_sim_advance(int state{params})
     {module}_state_t next;
 {unpack}
     next = {module}_step(({module}_state_t)state, in);
-    return (int)next | ({module}_invariants_hold(in, next) ? 0x10000 : 0);
+    return (int)next | ({module}_invariants_hold(in, next) ? {holds} : 0);
 }}
 """
 
@@ -102,44 +105,55 @@ def advance_c(module: str, names: tuple[str, ...]) -> str:
     """The adapter's source for a machine whose inputs struct has the fields `names`, in order."""
     params = "".join(f", int i{k}" for k in range(len(names)))
     unpack = "\n".join(f"    in.{name} = i{k} != 0;" for k, name in enumerate(names))
-    return ADVANCE_C.format(module=module, params=params, unpack=unpack)
+    return ADVANCE_C.format(module=module, params=params, unpack=unpack, holds=hex(HOLDS))
 
 
-class CAdvance:
-    """The generated C of a machine with the adapter above, loaded with ctypes; `names` are the inputs in the
-    struct's field order. No argtypes: ctypes passes Python ints and bools as C ints by default, and declared
-    argtypes would add a converter call per argument."""
-
-    def __init__(self, library: Path, module: str, names: tuple[str, ...]) -> None:
-        self._advance = getattr(ctypes.CDLL(str(library)), f"{module}_sim_advance")
-        self._advance.restype = ctypes.c_int
-        self._values: Callable[[dict[str, bool]], tuple[bool, ...]] = (
-            operator.itemgetter(*names) if len(names) > 1 else lambda inputs: tuple(inputs[n] for n in names)
-        )
-
-    def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
-        answer = self._advance(state, *self._values(inputs))
-        return answer & 0xFFFF, bool(answer >> 16)
+def load_c_advance(library: Path, module: str) -> Callable[..., int]:
+    """The adapter of a built C machine, loaded with ctypes: (state, *inputs) -> packed answer. No argtypes:
+    ctypes passes Python ints and bools as C ints by default, and declared argtypes would add a converter call
+    per argument."""
+    advance = getattr(ctypes.CDLL(str(library)), f"{module}_sim_advance")
+    advance.restype = ctypes.c_int
+    return advance  # type: ignore[no-any-return]
 
 
-def python_advance(machine: PyMachine, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
-    """One step of the generated Python machine and its monitor on the state reached."""
+def python_advance(machine: PyMachine, names: tuple[str, ...], state: int, *values: bool) -> int:
+    """One step of the generated Python machine and its monitor on the state reached, answered as the C adapter
+    answers."""
+    inputs = dict(zip(names, values, strict=True))
     new = machine.step(state, inputs)
-    return new, not machine.invariants(new, inputs)
+    return new | (0 if machine.invariants(new, inputs) else HOLDS)
+
+
+def input_values(names: tuple[str, ...]) -> Callable[[dict[str, bool]], tuple[bool, ...]]:
+    """A function from an inputs dict to its values in the order of `names` (one C call where there are two or
+    more)."""
+    if len(names) > 1:
+        return operator.itemgetter(*names)
+    return lambda inputs: tuple(inputs[n] for n in names)
 
 
 @dataclass
 class Controller:
-    """A generated machine behind one interface: states are the generated enum's integers. `advance` is one step of
-    the machine and its runtime monitor: the next state, and whether every invariant holds there (bound at load
-    to the C adapter or to the Python machine, so that a step costs the loop one call)."""
+    """A generated machine behind one interface: states are the generated enum's integers. `packed` is one step of
+    the machine and its runtime monitor, called as packed(state, *values) with the inputs' values in the order of
+    `inputs`: the state reached, with HOLDS set where every invariant holds there (bound at load to the C adapter
+    or to the Python machine, so that a step costs the loop one call)."""
 
     name: str
     states: tuple[str, ...]
     inputs: tuple[str, ...]
     initial: int
-    advance: Callable[[int, dict[str, bool]], tuple[int, bool]]
+    packed: Callable[..., int]
     py: PyMachine | None = None
+
+    def __post_init__(self) -> None:
+        self.values = input_values(self.inputs)
+
+    def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
+        """The state reached from `state` with `inputs`, and whether every invariant holds there."""
+        answer = self.packed(state, *self.values(inputs))
+        return answer & STATE_BITS, bool(answer & HOLDS)
 
     def failing(self, state: int, inputs: dict[str, bool]) -> list[str]:
         """The invariants failing in `state`, reached with `inputs`, where the monitor said one fails: by id from
@@ -159,7 +173,7 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
     if lang == "py":
         module = load_python(generated / "python" / f"{ir.module}_fsm.py", f"_sim_{ir.module}_fsm")
         py = PyMachine(module)
-        return Controller(name, ir.states, names, initial, functools.partial(python_advance, py), py=py)
+        return Controller(name, ir.states, names, initial, functools.partial(python_advance, py, names), py=py)
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
         adapter = Path(build) / f"{ir.module}_sim_advance.c"
         adapter.write_text(advance_c(ir.module, names), encoding="utf-8")
@@ -168,4 +182,4 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
         ran = build_shared(c_dir / f"{ir.module}_fsm.c", library, ("-I", str(c_dir), str(adapter)))
         if ran.returncode != 0:
             raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
-        return Controller(name, ir.states, names, initial, CAdvance(library, ir.module, names).advance)
+        return Controller(name, ir.states, names, initial, load_c_advance(library, ir.module))

@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from sim_check.sensing import Leader, neighbours
+from sim_check.reads import Leader, Reads
 
 FREE = math.inf  # no vehicle: an infinite gap
 
@@ -114,27 +114,27 @@ def _nearest(pairs: Any, speed: Any) -> Car:
     return Car(gap, speed(vid))
 
 
-def decide(sumo: Any, av: str, lane: int, lanes: int, *, leader: Leader, lane_end: float, lowest: int = 0) -> int:
+def decide(read: Reads, av: str, lane: int, lanes: int, *, leader: Leader, lane_end: float, lowest: int = 0) -> int:
     """+1, -1 or 0: the side MOBIL changes to this step, from libsumo's view of the AV in `lane` of an edge with
     `lanes` lanes. `leader` is the AV's leader as read this step; `lane_end` is the distance to the end of the
     AV's lane (infinite where it continues); lanes below `lowest` are not entered (a lane that ends). A vehicle
     beside the AV comes back as a neighbour with a negative gap: not safe."""
-    speed = sumo.vehicle.getSpeed
+    speed = read.speed
     v = speed(av)
-    v0 = sumo.vehicle.getAllowedSpeed(av)
+    v0 = read.allowed_speed(av)
     idm = Idm(v0=max(v0, 1.0))
-    length = sumo.vehicle.getLength(av)
+    length = read.length(av)
     ahead = Car(leader[1], speed(leader[0])) if leader else Car()
     if lane_end < ahead.gap:  # the end of the lane is a standing obstacle
         ahead = Car(lane_end, 0.0)
-    follow = sumo.vehicle.getFollower(av, 250.0)
+    follow = read.follower(av, 250.0)
     follower = Car(follow[1], speed(follow[0])) if follow and follow[0] else Car()
     best, best_gain = 0, -math.inf
     for side in (+1, -1):
         if not lowest <= lane + side < lanes:
             continue
-        scene = Scene(v, length, ahead, follower, _nearest(neighbours(sumo, av, side, leaders=True), speed),
-                      _nearest(neighbours(sumo, av, side, leaders=False), speed))  # fmt: skip
+        scene = Scene(v, length, ahead, follower, _nearest(read.neighbours(av, side, leaders=True), speed),
+                      _nearest(read.neighbours(av, side, leaders=False), speed))  # fmt: skip
         verdict = evaluate(scene, side, idm, idm)
         if verdict.change and verdict.incentive > best_gain:
             best, best_gain = side, verdict.incentive

@@ -13,6 +13,7 @@ wanted side was seen and not taken (deferred), and the time spent in each state 
 from __future__ import annotations
 
 import hashlib
+import math
 import time
 from collections import deque
 from dataclasses import asdict, dataclass, field
@@ -20,9 +21,10 @@ from pathlib import Path
 from typing import Any
 
 from sim_check import mobil
-from sim_check.controllers import Controller, Setup, load_controller, setup_of
+from sim_check.controllers import HOLDS, STATE_BITS, Controller, Setup, load_controller, setup_of
+from sim_check.reads import Leader, Reads
 from sim_check.scenario import Scenario, build, sumo_bin
-from sim_check.sensing import Claim, Leader, Network, Sensed, decides_on, sense
+from sim_check.sensing import Claim, Network, decides_on, sense
 
 MARKS_KM = (5, 10, 15, 20)
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
@@ -31,6 +33,7 @@ TRACE_STEPS = 20  # steps of history stored with a monitor violation
 SIM_LIMIT_S = 3600.0
 SAMPLE_STEPS = 10  # the background traffic's speed is sampled every this many steps
 STATES = ("IDLE", "WAITING", "MOVING_LEFT", "MOVING_RIGHT")
+SIDES = {"MOVING_LEFT": +1, "MOVING_RIGHT": -1}  # the states that move the AV, and the side they move it to
 
 
 MECHANISM = ("needs", "needs_moved", "needs_open", "needs_deferred", "need_s", "deferred_s")
@@ -112,37 +115,34 @@ class Need:
     deferred: bool = False
 
 
-class Reads:
-    """The SUMO getters the loop calls every step, bound once per run. Where `sumo` is libsumo, its compiled
-    functions are bound directly: libsumo's Python methods only forward to them, and the extra Python call per
-    read is a good part of what the loop costs beside SUMO's own step. The values are the same, but for getLeader's
-    "no leader", ("", -1.0) here where libsumo's method returns None."""
+History = deque[tuple[float, int, dict[str, bool], int]]
 
-    def __init__(self, sumo: Any) -> None:
-        compiled = getattr(sumo, "_libsumo", None)
 
-        def bind(domain: str, name: str) -> Any:
-            if compiled is not None:
-                return getattr(compiled, f"{domain}_{name}")
-            return getattr(getattr(sumo, domain), name)
+@dataclass(slots=True, eq=False)
+class Driving:
+    """What the loop keeps of one AV from its departure to its arrival."""
 
-        self.departed = bind("simulation", "getDepartedIDList")
-        self.arrived = bind("simulation", "getArrivedIDList")
-        self.collisions = bind("simulation", "getCollisions")
-        self.road = bind("vehicle", "getRoadID")
-        self.lane = bind("vehicle", "getLaneIndex")
-        self.position = bind("vehicle", "getLanePosition")
-        self.distance = bind("vehicle", "getDistance")
-        self.acceleration = bind("vehicle", "getAcceleration")
-        self.speed = bind("vehicle", "getSpeed")
-        self.leader = bind("vehicle", "getLeader")
-        self.follower = bind("vehicle", "getFollower")
-        self.edge_vehicles = bind("edge", "getLastStepVehicleNumber")
-        self.edge_speed = bind("edge", "getLastStepMeanSpeed")
+    id: str
+    m: AvMetrics
+    state: int  # the generated machine's state (fsm controllers)
+    state_s: list[float]  # seconds spent in each state of the machine, by state
+    history: History  # (time, state, inputs, next state) of the last steps, the trace stored with a violation
+    edge: str = ""  # where the AV was the step before
+    lane: int = -1
+    braking: bool = False  # whether it braked harder than EMERGENCY_DECEL the step before
+    close: set[str] = field(default_factory=set)  # vehicles within its minGap the step before
+    need: Need | None = None  # the N episode it is in
+    last_change: float = -math.inf  # when it was last commanded to change lane
 
 
 class ClosedLoop:
-    """The state of one run between steps."""
+    """The state of one run between steps.
+
+    Its step runs between two SUMO steps, every step of every run, and SUMO's step leaves the caches cold for it:
+    each Python call and each object it touches costs there several times what it costs in a warm loop. So a
+    step keeps each AV's state in one object (`Driving`), reads through the bound `Reads`, and keeps to a few
+    calls per AV: observing it (`drive`), sensing, the machine and its monitor, the mechanism's accounting; the
+    rare events (a departure, an arrival, a collision, a min-gap contact, a command) have their own methods."""
 
     def __init__(self, sumo: Any, setup: Setup, scenario: Scenario, av_ids: tuple[str, ...]) -> None:
         self.sumo = sumo
@@ -150,19 +150,16 @@ class ClosedLoop:
         self.network = Network(sumo)
         self.setup = setup
         self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
+        # the side each state of the machine moves to: +1 left, -1 right, 0 none
+        self.sides = tuple(SIDES.get(s, 0) for s in self.ctrl.states) if self.ctrl else ()
+        self.decide = {"fsm": self.decide_fsm, "without": self.decide_without, "mobil": self.decide_mobil}.get(
+            setup.kind
+        )
         self.scenario = scenario
         self.target = scenario.target_lane
-        self.state: dict[str, int] = {}
         self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
-        self.last_change: dict[str, float] = {}
-        self.place: dict[str, tuple[str, int]] = {}
-        self.braking: dict[str, bool] = {}
-        self.need: dict[str, Need] = {}
-        self.close: dict[str, set[str]] = {av: set() for av in av_ids}
-        # (time, state, inputs, next state) of the last steps, turned into the stored trace on a violation
-        self.history: dict[str, deque[tuple[float, int, dict[str, bool], int]]] = {
-            av: deque(maxlen=TRACE_STEPS) for av in av_ids
-        }
+        self.avs: dict[str, Driving] = {}  # every AV that has departed
+        self.driving: list[Driving] = []  # those not yet arrived, in the order of their ids
         self.violations: list[dict[str, Any]] = []
         self.pairs: set[tuple[str, str]] = set()
         # (AV, edge, lane, position) of every AV every step: hashed once at the end (trajectory_sha256), in one
@@ -172,35 +169,57 @@ class ClosedLoop:
         self.steps = 0
         self.bg_speed = [0.0, 0]  # sum of sampled speeds, number of samples
         self.edges: list[str] = []
-        self.arrived = 0
+        self.remaining = len(av_ids)  # the AVs that have not arrived
 
     def step(self, t: float) -> None:
         read = self.read
-        for av in read.departed():
-            if av in self.metrics:
-                if self.setup.kind != "sumo":
-                    self.sumo.vehicle.setLaneChangeMode(av, 0)
-                self.state[av] = self.ctrl.initial if self.ctrl else 0
-                self.metrics[av].depart_s = t
-        for av in read.arrived():
-            if av in self.metrics:
-                self.metrics[av].arrive_s = t
-                self.arrived += 1
-                self.state.pop(av, None)
-                if self.need.pop(av, None) is not None:
-                    self.metrics[av].needs_open += 1
+        departed = read.departed()
+        if departed:
+            self.depart(departed, t)
+        arrived = read.arrived()
+        if arrived:
+            self.arrive(arrived, t)
         collisions = read.collisions()
         if collisions:
             self.collide(collisions)
-        claims: list[Claim] = []
         speeds = 0.0
-        for av in sorted(self.state):
-            where, leader, speed = self.observe(av)
-            speeds += speed
-            self.decide(av, t, claims, where, leader=leader, speed=speed)
+        if self.driving:
+            claims: list[Claim] = []
+            for av in self.driving:
+                speeds += self.drive(av, t, claims)
         self.steps += 1
         if self.steps % SAMPLE_STEPS == 0:
-            self.sample(speeds, len(self.state))
+            self.sample(speeds, len(self.driving))
+
+    def enter(self, vid: str, t: float) -> Driving:
+        """Start keeping AV `vid`, departed at `t`."""
+        ctrl = self.ctrl
+        m = self.metrics[vid]
+        m.depart_s = t
+        av = self.avs[vid] = Driving(
+            vid, m, ctrl.initial if ctrl else 0, [0.0] * len(self.sides), deque(maxlen=TRACE_STEPS)
+        )
+        self.driving.append(av)
+        self.driving.sort(key=lambda d: d.id)
+        return av
+
+    def depart(self, departed: Any, t: float) -> None:
+        for vid in departed:
+            if vid in self.metrics:
+                if self.setup.kind != "sumo":
+                    self.sumo.vehicle.setLaneChangeMode(vid, 0)
+                self.enter(vid, t)
+
+    def arrive(self, arrived: Any, t: float) -> None:
+        for vid in arrived:
+            av = self.avs.get(vid)
+            if av is not None:
+                av.m.arrive_s = t
+                self.remaining -= 1
+                self.driving.remove(av)
+                if av.need is not None:
+                    av.m.needs_open += 1
+                    av.need = None
 
     def sample(self, av_speeds: float, avs: int) -> None:
         """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs)."""
@@ -227,112 +246,137 @@ class ClosedLoop:
                 if vid in self.metrics:
                     self.metrics[vid].collisions += 1
 
-    def observe(self, av: str) -> tuple[tuple[str, int, float], Leader, float]:
-        read, m = self.read, self.metrics[av]
-        edge, lane, pos = read.road(av), read.lane(av), read.position(av)
-        m.distance_m = read.distance(av)
-        before = self.place.get(av)
-        if before is not None and before[0] == edge and before[1] != lane and not edge.startswith(":"):
+    def drive(self, av: Driving, t: float, claims: list[Claim]) -> float:
+        """One step of one AV: observe it (its metrics), and let its controller decide. Returns its speed."""
+        read, m, vid = self.read, av.m, av.id
+        edge, lane, pos = read.road(vid), read.lane(vid), read.position(vid)
+        m.distance_m = read.distance(vid)
+        if lane != av.lane and edge == av.edge and edge[:1] != ":":
             m.lane_changes.append(m.distance_m)
-            need = self.need.get(av)
+            need = av.need
             if need is not None and not need.moved:
                 need.moved = True
                 m.needs_moved += 1
-        self.place[av] = (edge, lane)
-        braking = read.acceleration(av) < -EMERGENCY_DECEL
-        if braking and not self.braking.get(av, False):
+        av.edge, av.lane = edge, lane
+        braking = read.acceleration(vid) < -EMERGENCY_DECEL
+        if braking and not av.braking:
             m.emergency_brakes += 1
-        self.braking[av] = braking
-        speed = read.speed(av)
-        found = read.leader(av, 250.0)
+        av.braking = braking
+        speed: float = read.speed(vid)
+        found = read.leader(vid, 250.0)
         leader: Leader = found if found and found[0] else None
         if leader is not None and speed > 1.0:
             gap = max(leader[1], 0.0) / speed
-            m.min_time_gap_s = gap if m.min_time_gap_s is None else min(m.min_time_gap_s, gap)
-        self.mingap(av, leader, read.follower(av, 50.0))
-        self.trail.append((av, edge, lane, pos))
-        return (edge, lane, pos), leader, speed
+            if m.min_time_gap_s is None or gap < m.min_time_gap_s:
+                m.min_time_gap_s = gap
+        # SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract the
+        # follower's minGap, so a negative gap to the leader or from the follower ("" where none) is a contact
+        ahead = leader[0] if leader is not None and leader[1] < 0.0 else ""
+        follower = read.follower(vid, 50.0)
+        behind = follower[0] if follower[1] < 0.0 else ""
+        if ahead or behind or av.close:
+            self.contacts(av, ahead, behind)
+        self.trail.append((vid, edge, lane, pos))
+        if self.decide is not None:
+            self.decide(av, t, claims, (edge, lane, pos), leader=leader, speed=speed)
+        return speed
+
+    def contacts(self, av: Driving, ahead: str, behind: str) -> None:
+        """Count the min-gap contacts that begin this step: the vehicles within the AV's minGap ahead or behind
+        (each "" where none) that were not the step before."""
+        now = {vid for vid in (ahead, behind) if vid}
+        av.m.mingap_contacts += len(now - av.close)
+        av.close = now
 
     def trajectory_sha256(self) -> str:
         """The hash of every AV's edge, lane and position (to the millimetre), step by step."""
         lines = "".join(f"{av}|{edge}|{lane}|{pos:.3f}\n" for av, edge, lane, pos in self.trail)
         return hashlib.sha256(lines.encode()).hexdigest()
 
-    def mingap(self, av: str, leader: Leader, follower: tuple[str, float]) -> None:
-        """SUMO's default collision criterion, counted beside the physical one: libsumo's gaps already subtract
-        the follower's minGap, so a negative gap to the leader or from the follower is a min-gap contact.
-        `follower` is ("", -1.0) when there is none."""
-        now: set[str] = set()
-        if leader is not None and leader[1] < 0.0:
-            now.add(leader[0])
-        if follower[0] and follower[1] < 0.0:
-            now.add(follower[0])
-        before = self.close[av]
-        if now or before:  # most steps have no contact now nor in the step before
-            self.metrics[av].mingap_contacts += len(now - before)
-            self.close[av] = now
-
-    def decide(
-        self, av: str, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
+    def decide_fsm(
+        self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
     ) -> None:
-        kind = self.setup.kind
-        if kind == "sumo":
-            return
-        if kind == "mobil":
-            self.decide_mobil(av, t, where, leader)
-            return
-        sensed = sense(self.sumo, av, self.target, claims, where, network=self.network, leader=leader, speed=speed)
+        """The generated machine decides from the sensed inputs; a lane it moves to is claimed for the other AVs."""
+        sensed = sense(
+            self.read, self.network, av.id, where, target=self.target, claims=claims, leader=leader, speed=speed
+        )
         if sensed is None:
             return
-        # "without" goes wherever N points (the direction is 0 exactly when N does not hold)
-        side = self.machine(av, t, sensed) if kind == "fsm" else sensed.direction
-        if side and self.command(av, t, sensed.lane + side) and kind == "fsm":
-            claims.append(Claim(av, sensed.edge, sensed.lane + side, where[2]))
-        self.account(av, sensed, side)
+        inputs = sensed[0]
+        side = self.machine(av, t, inputs)
+        if side and self.command(av, t, where[1] + side):
+            claims.append(Claim(av.id, where[0], where[1] + side, where[2]))
+        if inputs["N"] or av.need is not None:
+            self.account(av, inputs, side)
 
-    def machine(self, av: str, t: float, sensed: Sensed) -> int:
+    def decide_without(
+        self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
+    ) -> None:
+        """ "Without algorithm": the AV goes wherever N points (the direction is 0 exactly when N does not hold)."""
+        sensed = sense(
+            self.read, self.network, av.id, where, target=self.target, claims=claims, leader=leader, speed=speed
+        )
+        if sensed is None:
+            return
+        inputs, side = sensed
+        if side:
+            self.command(av, t, where[1] + side)
+        if inputs["N"] or av.need is not None:
+            self.account(av, inputs, side)
+
+    def decide_mobil(
+        self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
+    ) -> None:
+        edge, lane, pos = where
+        if not decides_on(edge):
+            return
+        end = self.network.lane_end(edge, lane, pos)
+        lowest = 1 if edge == "acc" and lane > 0 else 0
+        lanes = self.network.lanes[edge]
+        side = mobil.decide(self.read, av.id, lane, lanes, leader=leader, lane_end=end, lowest=lowest)
+        if side:
+            self.command(av, t, lane + side)
+
+    def machine(self, av: Driving, t: float, inputs: dict[str, bool]) -> int:
         """One step of the generated machine and its runtime monitor; the side it moves to (+1, -1 or 0)."""
         ctrl = self.ctrl
         assert ctrl is not None
-        old, inputs = self.state[av], sensed.inputs
-        new, holds = ctrl.advance(old, inputs)
-        self.state[av] = new
-        name = ctrl.states[new]
-        state_s = self.metrics[av].state_s
-        state_s[name] = state_s.get(name, 0.0) + self.dt
-        self.history[av].append((t, old, inputs, new))
-        if not holds:
+        old = av.state
+        answer = ctrl.packed(old, *ctrl.values(inputs))
+        new = av.state = answer & STATE_BITS
+        av.state_s[new] += self.dt
+        av.history.append((t, old, inputs, new))
+        if not answer & HOLDS:
             self.violation(av, t, ctrl.failing(new, inputs))
-        return 1 if name == "MOVING_LEFT" else -1 if name == "MOVING_RIGHT" else 0
+        return self.sides[new]
 
-    def violation(self, av: str, t: float, failing: list[str]) -> None:
+    def violation(self, av: Driving, t: float, failing: list[str]) -> None:
         """Store a runtime-monitor violation with the steps that led to it."""
         assert self.ctrl is not None
         names = self.ctrl.states
         trace = [
             {"t": round(when, 3), "state": names[old], "inputs": inputs, "next": names[new]}
-            for when, old, inputs, new in self.history[av]
+            for when, old, inputs, new in av.history
         ]
-        self.metrics[av].monitor_violations += 1
-        self.violations.append({"av": av, "time_s": round(t, 3), "invariants": failing, "trace": trace})
+        av.m.monitor_violations += 1
+        self.violations.append({"av": av.id, "time_s": round(t, 3), "invariants": failing, "trace": trace})
 
-    def command(self, av: str, t: float, target: int) -> bool:
+    def command(self, av: Driving, t: float, target: int) -> bool:
         """Ask SUMO for a lane change, at most once per DWELL_S (SUMO's change is instantaneous)."""
-        if t - self.last_change.get(av, -1e9) < DWELL_S:
+        if t - av.last_change < DWELL_S:
             return False
-        self.sumo.vehicle.changeLane(av, target, 1.0)
-        self.last_change[av] = t
+        self.sumo.vehicle.changeLane(av.id, target, 1.0)
+        av.last_change = t
         return True
 
-    def account(self, av: str, sensed: Sensed, side: int) -> None:
+    def account(self, av: Driving, inputs: dict[str, bool], side: int) -> None:
         """The mechanism: N episodes, and safe gaps towards the wanted side that the controller did not take."""
-        m, inputs = self.metrics[av], sensed.inputs
         if not inputs["N"]:
-            self.need.pop(av, None)
+            av.need = None
             return
-        need = self.need.get(av)
+        m, need = av.m, av.need
         if need is None:
-            need = self.need[av] = Need()
+            need = av.need = Need()
             m.needs += 1
         m.need_s += self.dt
         if (inputs["L"] or inputs["R"]) and not side:
@@ -341,20 +385,14 @@ class ClosedLoop:
                 need.deferred = True
                 m.needs_deferred += 1
 
-    def decide_mobil(self, av: str, t: float, where: tuple[str, int, float], leader: Leader) -> None:
-        edge, lane, pos = where
-        if not decides_on(edge):
-            return
-        lanes = self.network.lanes(edge)
-        end = self.network.lane_end(edge, lane, pos)
-        lowest = 1 if edge == "acc" and lane > 0 else 0
-        side = mobil.decide(self.sumo, av, lane, lanes, leader=leader, lane_end=end, lowest=lowest)
-        if side:
-            self.command(av, t, lane + side)
-
-    @property
-    def done(self) -> bool:
-        return self.arrived == len(self.metrics)
+    def finish(self) -> list[AvMetrics]:
+        """Every AV's metrics at the end of the run, in the order the loop was given the AVs. The time in each
+        state of the machine, kept by state number during the run, is put in by state name (the states an AV was
+        never in are left out)."""
+        if self.ctrl is not None:
+            for av in self.avs.values():
+                av.m.state_s = {self.ctrl.states[k]: s for k, s in enumerate(av.state_s) if s}
+        return list(self.metrics.values())
 
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
@@ -388,23 +426,25 @@ def run_once(
     libsumo.start(sumo_args(scenario, built.net, built.routes, seed, setup.options))
     loop = ClosedLoop(libsumo, setup, scenario, built.av_ids)
     result = RunResult(controller, scenario.traffic.avs, seed)
+    read, steps, vehicle_steps = loop.read, 0, 0
     try:
         while True:
             libsumo.simulationStep()
-            t = libsumo.simulation.getTime()
-            result.sim_steps += 1
-            result.vehicle_steps += libsumo.vehicle.getIDCount()
+            t = read.time()
+            steps += 1
+            vehicle_steps += read.vehicle_count()
             loop.step(t)
-            if loop.done:
+            if not loop.remaining:
                 break
             if t > limit_s:
                 result.status, result.reason = "failed", f"AVs had not arrived after {limit_s:.0f} simulated s"
                 break
     finally:
         libsumo.close()
+    result.sim_steps, result.vehicle_steps = steps, vehicle_steps
     result.collisions = len(loop.pairs)
     result.bg_mean_speed_ms = loop.bg_speed[0] / loop.bg_speed[1] if loop.bg_speed[1] else None
-    result.metrics = [loop.metrics[av] for av in built.av_ids]
+    result.metrics = loop.finish()
     result.violations = loop.violations
     result.trajectory_sha256 = loop.trajectory_sha256()
     result.wall_s = time.perf_counter() - start
@@ -424,13 +464,13 @@ def run_plain(
     built = build(scenario, seed, work, setup.av_type)
     start = time.perf_counter()
     libsumo.start(sumo_args(scenario, built.net, built.routes, seed, setup.options))
-    waiting, steps, vehicle_steps = set(built.av_ids), 0, 0
+    read, waiting, steps, vehicle_steps = Reads(libsumo), set(built.av_ids), 0, 0
     try:
-        while waiting and libsumo.simulation.getTime() <= limit_s:
+        while waiting and read.time() <= limit_s:
             libsumo.simulationStep()
             steps += 1
-            vehicle_steps += libsumo.vehicle.getIDCount()
-            waiting.difference_update(libsumo.simulation.getArrivedIDList())
+            vehicle_steps += read.vehicle_count()
+            waiting.difference_update(read.arrived())
     finally:
         libsumo.close()
     return time.perf_counter() - start, steps, vehicle_steps

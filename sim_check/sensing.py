@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import Any
+
+from sim_check.reads import Leader, Reads
 
 URGENT_M = 100.0
 LOOKAHEAD_M = 100.0
@@ -30,9 +32,6 @@ TIME_GAP_S = 1.0
 MIN_GAP_M = 3.0
 FOLLOWER_DECEL = 4.0
 CLAIM_RADIUS_M = 30.0
-
-
-Leader = tuple[str, float] | None  # libsumo's getLeader: (id, gap) or None
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,16 +44,22 @@ class Claim:
     pos: float
 
 
-class Sensed(NamedTuple):
-    inputs: dict[str, bool]
-    direction: int  # +1 towards the left, -1 towards the right, 0 none needed
-    lane: int
-    edge: str
-
-
 def decides_on(edge: str) -> bool:
     """Whether an AV makes lane decisions on `edge`: not on the ramp (one lane), not inside a junction."""
     return edge != "ramp" and not edge.startswith(":")
+
+
+class LaneCounts(dict[str, int]):
+    """Lane counts by edge, each read from SUMO the first time it is asked for (a hit costs no Python call)."""
+
+    def __init__(self, sumo: Any) -> None:
+        super().__init__()
+        self._sumo = sumo
+
+    def __missing__(self, edge: str) -> int:
+        lanes: int = self._sumo.edge.getLaneNumber(edge)
+        self[edge] = lanes
+        return lanes
 
 
 class Network:
@@ -63,15 +68,8 @@ class Network:
 
     def __init__(self, sumo: Any) -> None:
         self._sumo = sumo
-        self._lanes: dict[str, int] = {}
+        self.lanes = LaneCounts(sumo)  # network.lanes[edge]: the number of lanes of `edge`
         self._lengths: dict[str, float] = {}
-
-    def lanes(self, edge: str) -> int:
-        """The number of lanes of `edge`."""
-        lanes = self._lanes.get(edge)
-        if lanes is None:
-            lanes = self._lanes[edge] = self._sumo.edge.getLaneNumber(edge)
-        return lanes
 
     def lane_end(self, edge: str, lane: int, pos: float) -> float:
         """Metres to the end of the AV's lane: the acceleration lane (lane 0 of `acc`) ends, every other
@@ -85,32 +83,13 @@ class Network:
         return length - pos
 
 
-def wanted_lane(edge: str, target: int, lanes: int) -> int:
-    """The lane the AV wants on `edge` (one it decides on): the target lane on the built-in highway, the middle
-    lane elsewhere (an imported OpenStreetMap road)."""
-    if edge == "acc":
-        return target + 1  # lane i+1 of the acceleration edge continues as lane i of the highway
-    if edge in ("hw", "hw_in"):
-        return target
-    return lanes // 2
-
-
-def neighbours(sumo: Any, av: str, side: int, leaders: bool) -> Any:
-    """The nearest vehicles ahead (leaders) or behind in the lane on `side` (+1 left, -1 right): (id, gap) pairs.
-    Named queries, not getNeighbors' bit modes (whose left/right bit is easily read backwards)."""
-    v = sumo.vehicle
-    if side > 0:
-        return v.getLeftLeaders(av) if leaders else v.getLeftFollowers(av)
-    return v.getRightLeaders(av) if leaders else v.getRightFollowers(av)
-
-
-def _gap_ok(sumo: Any, av: str, side: int, v: float) -> bool:
+def _gap_ok(read: Reads, av: str, side: int, v: float) -> bool:
     """Whether the gap on `side` is safe for the AV driving at `v` m/s."""
-    for _vid, gap in neighbours(sumo, av, side, leaders=True):
+    for _vid, gap in read.neighbours(av, side, leaders=True):
         if gap < max(MIN_GAP_M, v * TIME_GAP_S):
             return False
-    for vid, gap in neighbours(sumo, av, side, leaders=False):
-        vf = sumo.vehicle.getSpeed(vid)
+    for vid, gap in read.neighbours(av, side, leaders=False):
+        vf = read.speed(vid)
         if gap < max(MIN_GAP_M, vf * TIME_GAP_S):
             return False
         if vf > v and (vf - v) ** 2 / (2 * max(gap, 0.1)) > FOLLOWER_DECEL:
@@ -122,45 +101,51 @@ def _claimed(claims: list[Claim], av: str, edge: str, lane: int, pos: float) -> 
     return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
 
 
-def _slow(sumo: Any, vid: str, gap: float, av: str) -> bool:
-    """A slow vehicle `gap` metres ahead: within LOOKAHEAD_M and below SLOWER times the AV's allowed speed."""
-    return gap < LOOKAHEAD_M and sumo.vehicle.getSpeed(vid) < SLOWER * sumo.vehicle.getAllowedSpeed(av)
-
-
 def sense(
-    sumo: Any,
+    read: Reads,
+    network: Network,
     av: str,
-    target: int,
-    claims: list[Claim],
     where: tuple[str, int, float],
     *,
-    network: Network,
+    target: int,
+    claims: list[Claim],
     leader: Leader,
     speed: float,
-) -> Sensed | None:
-    """The inputs of one step, or None where the AV makes no decision (on the ramp, inside a junction).
-    `where` is the AV's edge, lane index and position on the lane, `leader` its leader and `speed` its speed,
-    already read this step; `network` is the run's `Network`."""
+) -> tuple[dict[str, bool], int] | None:
+    """The inputs of one step and the direction of the wanted lane (+1 left, -1 right, 0 none wanted), or None
+    where the AV makes no decision (on the ramp, inside a junction). `where` is the AV's edge, lane index and
+    position on the lane, `leader` its leader and `speed` its speed, already read this step; `network` is the
+    run's `Network`, `target` the highway's target lane and `claims` the lanes other AVs claimed this step.
+    Called every step for every AV, between two SUMO steps: the common case (the AV in its wanted lane) makes no
+    Python call but this one."""
     edge, lane, pos = where
-    if not decides_on(edge):
+    if edge == "ramp" or edge[:1] == ":":  # decides_on(edge), inline
         return None
-    lanes = network.lanes(edge)
-    wanted = wanted_lane(edge, target, lanes)
+    lanes = network.lanes[edge]
+    if edge == "acc":  # the merge: lane i+1 of the acceleration edge continues as lane i of the highway
+        wanted = target + 1
+    elif edge in ("hw", "hw_in"):
+        wanted = target
+    else:  # an imported OpenStreetMap road: its middle lane
+        wanted = lanes // 2
     direction = (wanted > lane) - (wanted < lane)
-    if direction == 0 and leader is not None and _slow(sumo, leader[0], leader[1], av):
-        direction = 1 if lane + 1 < lanes else -1
-    elif (  # back towards the wanted lane, unless still overtaking there
-        direction != 0
-        and edge != "acc"
-        and any(_slow(sumo, vid, gap, av) for vid, gap in neighbours(sumo, av, direction, leaders=True))
-    ):
-        direction = 0
+    if direction == 0:
+        if (  # the leader is slow (below SLOWER times the AV's allowed speed) within LOOKAHEAD_M: overtake it
+            leader is not None and leader[1] < LOOKAHEAD_M and read.speed(leader[0]) < SLOWER * read.allowed_speed(av)
+        ):
+            direction = 1 if lane + 1 < lanes else -1
+    elif edge != "acc":  # back towards the wanted lane, unless still overtaking a slow leader there
+        slow = SLOWER * read.allowed_speed(av)
+        for vid, gap in read.neighbours(av, direction, leaders=True):
+            if gap < LOOKAHEAD_M and read.speed(vid) < slow:
+                direction = 0
+                break
     left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)
     right = direction < 0 and lane > 0 and not _claimed(claims, av, edge, lane - 1, pos)
     inputs = {
         "N": direction != 0,
-        "W": network.lane_end(edge, lane, pos) >= URGENT_M,
-        "L": left and _gap_ok(sumo, av, +1, speed),
-        "R": right and _gap_ok(sumo, av, -1, speed),
+        "W": edge != "acc" or network.lane_end(edge, lane, pos) >= URGENT_M,
+        "L": left and _gap_ok(read, av, +1, speed),
+        "R": right and _gap_ok(read, av, -1, speed),
     }
-    return Sensed(inputs, direction, lane, edge)
+    return inputs, direction

@@ -12,10 +12,11 @@ import pytest
 from sim_check.cli import main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
 from sim_check.paper_results import CLAIMS, LANE_FIGURES, MARKS
+from sim_check.reads import Reads
 from sim_check.report import label, write_report
 from sim_check.runner import run_once, sumo_args
 from sim_check.scenario import build, load_scenario
-from sim_check.sensing import _gap_ok, neighbours
+from sim_check.sensing import _gap_ok
 
 ROOT = Path(__file__).parent.parent
 SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
@@ -43,14 +44,15 @@ def test_sensing_reads_the_side_it_names_and_rejects_a_car_alongside(tmp_path: P
     libsumo.start(sumo_args(scenario, built.net, routes, 0))
     try:
         libsumo.simulationStep()
-        assert [vid for vid, _ in neighbours(libsumo, "av0", -1, leaders=True)] == ["ahead"]
-        assert neighbours(libsumo, "av0", -1, leaders=False) == ()
-        assert neighbours(libsumo, "av0", +1, leaders=True) == ()
-        ((vid, gap),) = neighbours(libsumo, "av0", +1, leaders=False)  # the car beside: a follower, overlapping
+        read = Reads(libsumo)
+        assert [vid for vid, _ in read.neighbours("av0", -1, leaders=True)] == ["ahead"]
+        assert read.neighbours("av0", -1, leaders=False) == ()
+        assert read.neighbours("av0", +1, leaders=True) == ()
+        ((vid, gap),) = read.neighbours("av0", +1, leaders=False)  # the car beside: a follower, overlapping
         assert vid == "beside" and gap < 0
         speed = libsumo.vehicle.getSpeed("av0")
-        assert not _gap_ok(libsumo, "av0", +1, speed)
-        assert _gap_ok(libsumo, "av0", -1, speed)
+        assert not _gap_ok(read, "av0", +1, speed)
+        assert _gap_ok(read, "av0", -1, speed)
     finally:
         libsumo.close()
 

@@ -18,9 +18,10 @@ import pytest
 from mlca_verify.errors import SpecError
 from sim_check.cli import main
 from sim_check.controllers import load_controller, setup_of
-from sim_check.runner import TRACE_STEPS, ClosedLoop, Reads, run_once, run_plain, sumo_args
+from sim_check.reads import Reads
+from sim_check.runner import TRACE_STEPS, ClosedLoop, run_once, run_plain, sumo_args
 from sim_check.scenario import build, load_scenario
-from sim_check.sensing import Network, Sensed
+from sim_check.sensing import Network
 
 ROOT = Path(__file__).parent.parent
 SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
@@ -244,8 +245,16 @@ def test_the_loops_bound_reads_give_what_libsumos_methods_give(tmp_path: Path) -
                 assert read.speed(av) == v.getSpeed(av) and read.acceleration(av) == v.getAcceleration(av)
                 assert read.leader(av, 250.0) == (v.getLeader(av, 250.0) or ("", -1.0))
                 assert read.follower(av, 50.0) == v.getFollower(av, 50.0)
+                assert read.allowed_speed(av) == v.getAllowedSpeed(av) and read.length(av) == v.getLength(av)
+                for side, leaders, named in (
+                    (+1, True, v.getLeftLeaders),
+                    (+1, False, v.getLeftFollowers),
+                    (-1, True, v.getRightLeaders),
+                    (-1, False, v.getRightFollowers),
+                ):
+                    assert read.neighbours(av, side, leaders) == named(av)
                 if not edge.startswith(":"):
-                    assert network.lanes(edge) == libsumo.edge.getLaneNumber(edge)
+                    assert network.lanes[edge] == libsumo.edge.getLaneNumber(edge)
                     end = libsumo.lane.getLength(f"{edge}_{lane}") - read.position(av)
                     assert network.lane_end(edge, lane, read.position(av)) == (
                         end if (edge, lane) == ("acc", 0) else math.inf
@@ -260,18 +269,19 @@ def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
 
     loop = ClosedLoop(libsumo, setup_of("mlca-py"), load_scenario(SHORT), ("av0",))
     ctrl = load_controller("mlca-py")
-    loop.state["av0"] = state = ctrl.initial
+    av = loop.enter("av0", 0.0)
+    state = ctrl.initial
     inputs = [{"N": k % 3 != 0, "W": k % 2 == 0, "L": k % 5 == 1, "R": k % 7 == 2} for k in range(TRACE_STEPS + 5)]
     expected = []
     for k, given in enumerate(inputs):
-        loop.machine("av0", k / 10, Sensed(given, 0, 2, "hw"))
+        loop.machine(av, k / 10, given)
         after, _ = ctrl.advance(state, given)
         expected.append(
             {"t": round(k / 10, 3), "state": ctrl.states[state], "inputs": given, "next": ctrl.states[after]}
         )
         state = after
-    assert loop.state["av0"] == state and loop.violations == []  # the shipped machine keeps its invariants
-    loop.violation("av0", 2.4, ["I9"])
+    assert av.state == state and loop.violations == []  # the shipped machine keeps its invariants
+    loop.violation(av, 2.4, ["I9"])
     (stored,) = loop.violations
     assert stored == {"av": "av0", "time_s": 2.4, "invariants": ["I9"], "trace": expected[-TRACE_STEPS:]}
     assert loop.metrics["av0"].monitor_violations == 1
