@@ -13,8 +13,11 @@ sweep of RUNS runs of one configuration over JOBS worker processes (target: 100 
 the same runs of plain SUMO on JOBS worker processes, and RUNS runs at the best plain time above shared perfectly.
 
 With `--instructions SECONDS`, also the instructions each side executes over the first SECONDS simulated seconds,
-counted by valgrind's callgrind (repeatable whatever else the machine does; the start of Python and SUMO, counted
-alone, is subtracted from both). It separates the work the closed loop adds from the time that work costs.
+and the misses of a simulated L2 cache the size of this core's, counted by valgrind's callgrind (repeatable
+whatever else the machine does; the start of Python and SUMO, counted alone, is subtracted from both), each for
+the whole run and inside SUMO's step. It separates the work the closed loop adds from the time that work costs:
+the loop between two SUMO steps evicts part of SUMO's code and data from the cache, which SUMO's next step reads
+back.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from sim_check.controllers import load_controller
@@ -95,22 +99,70 @@ def child(mode: str, limit_s: float) -> None:
             closed(work, limit_s)
 
 
+def l2_cache() -> str:
+    """This machine's per-core L2 cache as valgrind's --LL option (size,ways,line size), from sysfs; valgrind
+    simulates it as the last level, the one whose misses SUMO's step and the loop between steps cost each other
+    (the L3 here is shared with other tenants of the host)."""
+    try:
+        folder = Path("/sys/devices/system/cpu/cpu0/cache/index2")
+        size = folder.joinpath("size").read_text().strip()
+        ways = folder.joinpath("ways_of_associativity").read_text().strip()
+        line = folder.joinpath("coherency_line_size").read_text().strip()
+    except OSError:
+        return "524288,8,64"
+    units = {"K": 1024, "M": 1024 * 1024}
+    bytes_ = int(size[:-1]) * units[size[-1]] if size[-1] in units else int(size)
+    return f"{bytes_},{ways},{line}"
+
+
+STEP_FUNCTION = "libsumo::Simulation::step(double)"
+EVENTS = ("Ir", "ILmr", "DLmr", "DLmw")
+
+
+def _counts(mode: str, limit_s: float, cache: str, folder: Path) -> dict[str, tuple[int, int]]:
+    """Instructions and L2 misses of one callgrind run: (whole run, inside SUMO's step)."""
+    out = folder / f"callgrind.{mode}"
+    ran = subprocess.run(
+        ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", "--cache-sim=yes", f"--LL={cache}",
+         sys.executable, __file__, "--child", mode, "--instructions", str(limit_s)],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if ran.returncode != 0 or not out.exists():
+        sys.exit(f"error: callgrind failed ({mode}): {ran.stderr.strip()[-500:]}")
+    shown = subprocess.run(
+        ["callgrind_annotate", "--inclusive=yes", f"--show={','.join(EVENTS)}", str(out)],
+        capture_output=True, text=True, check=True,
+    ).stdout  # fmt: skip
+    totals, step = _events(shown, "PROGRAM TOTALS"), _events(shown, STEP_FUNCTION)
+    ir, misses = (totals[0], sum(totals[1:])), (step[0], sum(step[1:]))
+    return {"Ir": (ir[0], misses[0]), "L2": (ir[1], misses[1])}
+
+
+def _events(annotated: str, name: str) -> list[int]:
+    """The event counts of the line of callgrind_annotate's output that names `name` (zeros where none does)."""
+    for line in annotated.splitlines():
+        if line.rstrip().endswith(name) or f":{name} " in line:
+            numbers = re.sub(r"\([^)]*%\)", " ", line.split(name)[0].split("???")[0]).split()
+            values = [int(n.replace(",", "")) for n in numbers if re.fullmatch(r"[\d,]+", n)]
+            if len(values) >= len(EVENTS):
+                return values[: len(EVENTS)]
+    return [0] * len(EVENTS)
+
+
 def instructions(limit_s: float) -> None:
-    counts = {}
-    for mode in ("start", "plain", "closed"):
-        ran = subprocess.run(
-            ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null", sys.executable, __file__,
-             "--child", mode, "--instructions", str(limit_s)],
-            capture_output=True, text=True, check=False,
-        )  # fmt: skip
-        found = re.search(r"Collected : (\d+)", ran.stderr)
-        if ran.returncode != 0 or not found:
-            sys.exit(f"error: callgrind failed ({mode}): {ran.stderr.strip()[-500:]}")
-        counts[mode] = int(found.group(1))
-    plain_i, closed_i = counts["plain"] - counts["start"], counts["closed"] - counts["start"]
-    print(f"instructions over the first {limit_s:.0f} simulated s (callgrind, the start subtracted):")
-    print(f"  plain SUMO {plain_i / 1e9:.3f} G, closed loop {closed_i / 1e9:.3f} G: "
-          f"ratio {closed_i / plain_i:.3f}; the closed loop adds {closed_i - plain_i:,} instructions\n")  # fmt: skip
+    cache = l2_cache()
+    with tempfile.TemporaryDirectory() as folder, ThreadPoolExecutor(2) as pool:
+        runs = {mode: pool.submit(_counts, mode, limit_s, cache, Path(folder)) for mode in ("start", "plain", "closed")}
+        counts = {mode: run.result() for mode, run in runs.items()}
+    print(f"over the first {limit_s:.0f} simulated s (callgrind, the start subtracted; L2 misses of a simulated "
+          f"{cache.split(',')[0]}-byte {cache.split(',')[1]}-way L2, this core's):")  # fmt: skip
+    for event, label in (("Ir", "instructions"), ("L2", "L2 misses")):
+        plain = [counts["plain"][event][k] - counts["start"][event][k] for k in (0, 1)]
+        closed = [counts["closed"][event][k] - counts["start"][event][k] for k in (0, 1)]
+        print(f"  {label:12}  plain SUMO {plain[0]:>14,}  closed loop {closed[0]:>14,}  "
+              f"ratio {closed[0] / plain[0]:.3f};  inside SUMO's step: plain {plain[1]:>14,}  "
+              f"closed {closed[1]:>14,}  ratio {closed[1] / plain[1]:.3f}")  # fmt: skip
+    print()
 
 
 def main() -> None:
@@ -118,7 +170,9 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=100)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=5)
-    parser.add_argument("--instructions", type=float, metavar="SECONDS", help="also count instructions (valgrind)")
+    parser.add_argument(
+        "--instructions", type=float, metavar="SECONDS", help="also count instructions and L2 misses (valgrind)"
+    )
     parser.add_argument("--child", choices=("start", "plain", "closed"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -158,6 +212,8 @@ def main() -> None:
               f"closed loop {around[labels[1]]:.3f} s\n")  # fmt: skip
         if args.instructions is not None:
             instructions(args.instructions)
+        if args.runs < 1:
+            return
         start = time.perf_counter()
         sweep = Sweep(load_scenario(), work / "bench.sqlite", args.jobs, timeout_s=600)
         results = sweep.run([(CONTROLLER, 1, seed) for seed in range(args.runs)], lambda r: None)
