@@ -6,7 +6,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PYTHON=${PYTHON:-python3}
-# Debian packages the toolchain relies on (python3-venv only where the interpreter lacks venv/ensurepip):
+# Debian packages the toolchain relies on (python3-venv only where the interpreter lacks venv/ensurepip, python3-dev
+# only where it lacks its C headers):
 # a C compiler with sanitizers, Frama-C with WP, Why3 and z3 (the prover WP calls), cppcheck (with its MISRA
 # addon), the Cortex-M cross compiler with its C library, valgrind for the benchmarks, Graphviz for SVG
 # diagrams, Chromium for the evidence page's browser test, and the X11 and GL libraries libsumo and SUMO load.
@@ -36,6 +37,11 @@ for pkg in "${SYSTEM_PACKAGES[@]+"${SYSTEM_PACKAGES[@]}"}"; do
 done
 if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
     missing+=("python3-venv")
+fi
+# The closed loop imports the generated C as a Python extension module, built against the interpreter's Python.h.
+if ! "$PYTHON" -c 'import pathlib, sys, sysconfig
+sys.exit(not (pathlib.Path(sysconfig.get_paths()["include"]) / "Python.h").is_file())' >/dev/null 2>&1; then
+    missing+=("python3-dev")
 fi
 # Node.js runs SCION, the W3C SCXML interpreter the diagram tests use (tools/scxml).
 if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then

@@ -1,4 +1,5 @@
-"""The controllers an AV can have: the generated MLCA machines (Python module or C library via ctypes) and the
+"""The controllers an AV can have: the generated MLCA machines (Python module, or C built as a shared library that
+Python imports) and the
 paper's comparison models, each described by a `Setup` (what drives the AV and what SUMO is told).
 
 SUMO ships the lane-change models LC2013, SL2015 and DK2008, and nothing named LC2014, LC2017 or MOBIL; the
@@ -6,9 +7,10 @@ SUMO ships the lane-change models LC2013, SL2015 and DK2008, and nothing named L
 
 from __future__ import annotations
 
-import ctypes
 import functools
+import importlib.util
 import operator
+import sysconfig
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -83,38 +85,78 @@ def setup_of(name: str) -> Setup:
 HOLDS = 0x10000  # the bit of a packed answer that says every invariant holds in the state reached
 STATE_BITS = 0xFFFF  # the bits of a packed answer that are the state reached
 
-# The closed loop's one call into the generated C a step: the inputs as int arguments (argument k is the k-th
-# field of the inputs struct), the generated step, and the generated monitor on the state reached, answered as one
-# int. One call with plain ints costs ctypes far less than two calls passing the struct by value.
-ADVANCE_C = """#include "{module}_fsm.h"
+# The closed loop's one call into the generated C a step: a Python extension function taking the state and the
+# inputs in the order of the inputs struct's fields, which steps the generated machine, runs the generated monitor on
+# the state reached, and answers both as one int. Called through the interpreter's own C calling convention
+# (METH_FASTCALL): per call, ctypes' argument conversion and libffi cost several times the instructions, and the code
+# and data they touch between two SUMO steps evict part of SUMO's from the cache.
+ADVANCE_C = """#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include "{module}_fsm.h"
 
-int {module}_sim_advance(int state{params});
+PyMODINIT_FUNC PyInit__{module}_sim(void);
 
-int {module}_sim_advance(int state{params})
+static PyObject *advance(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {{
     {module}_inputs_t in;
     {module}_state_t next;
+    long state;
+    (void)self;
+    if (nargs != {nargs}) {{
+        PyErr_SetString(PyExc_TypeError, "advance takes the state and {inputs} inputs");
+        return NULL;
+    }}
+    state = PyLong_AsLong(args[0]);
+    if (state == -1 && PyErr_Occurred()) {{
+        return NULL;
+    }}
 {unpack}
     next = {module}_step(({module}_state_t)state, in);
-    return (int)next | ({module}_invariants_hold(in, next) ? {holds} : 0);
+    return PyLong_FromLong((long)next | ({module}_invariants_hold(in, next) ? {holds} : 0));
+}}
+
+static PyMethodDef methods[] = {{
+    {{"advance", (PyCFunction)(void (*)(void))advance, METH_FASTCALL, "advance(state, *inputs) -> packed answer"}},
+    {{NULL, NULL, 0, NULL}}
+}};
+
+static struct PyModuleDef definition = {{
+    PyModuleDef_HEAD_INIT, "_{module}_sim", "The closed loop's step of {module}.", -1, methods, NULL, NULL, NULL, NULL
+}};
+
+PyMODINIT_FUNC PyInit__{module}_sim(void)
+{{
+    return PyModule_Create(&definition);
 }}
 """
 
 
 def advance_c(module: str, names: tuple[str, ...]) -> str:
-    """The adapter's source for a machine whose inputs struct has the fields `names`, in order."""
-    params = "".join(f", int i{k}" for k in range(len(names)))
-    unpack = "\n".join(f"    in.{name} = i{k} != 0;" for k, name in enumerate(names))
-    return ADVANCE_C.format(module=module, params=params, unpack=unpack, holds=hex(HOLDS))
+    """The adapter's source for a machine whose inputs struct has the fields `names`, in order (argument k + 1 is
+    field k; any truthy value is true)."""
+    unpack = "\n".join(f"    in.{name} = PyObject_IsTrue(args[{k + 1}]) == 1;" for k, name in enumerate(names))
+    return ADVANCE_C.format(module=module, nargs=len(names) + 1, inputs=len(names), unpack=unpack, holds=hex(HOLDS))
 
 
-def load_c_advance(library: Path, module: str) -> Callable[..., int]:
-    """The adapter of a built C machine, loaded with ctypes: (state, *inputs) -> packed answer. No argtypes:
-    ctypes passes Python ints and bools as C ints by default, and declared argtypes would add a converter call
-    per argument."""
-    advance = getattr(ctypes.CDLL(str(library)), f"{module}_sim_advance")
-    advance.restype = ctypes.c_int
-    return advance  # type: ignore[no-any-return]
+def python_headers() -> Path:
+    """The folder of this interpreter's Python.h, which the C controller's adapter is built against."""
+    folder = Path(sysconfig.get_paths()["include"])
+    if not (folder / "Python.h").is_file():
+        raise ToolError(
+            f"error: cannot build the C controller: no Python.h in {folder}; install this Python's development "
+            "headers (Debian: python3-dev), as scripts/setup.sh does"
+        )
+    return folder
+
+
+def import_extension(library: Path, name: str) -> object:
+    """Import the extension module `name` from the shared library `library`."""
+    spec = importlib.util.spec_from_file_location(name, library)
+    if spec is None or spec.loader is None:
+        raise ToolError(f"error: cannot load the C controller from {library}")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def python_advance(machine: PyMachine, names: tuple[str, ...], state: int, *values: bool) -> int:
@@ -174,12 +216,14 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
         module = load_python(generated / "python" / f"{ir.module}_fsm.py", f"_sim_{ir.module}_fsm")
         py = PyMachine(module)
         return Controller(name, ir.states, names, initial, functools.partial(python_advance, py, names), py=py)
+    headers = python_headers()
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
         adapter = Path(build) / f"{ir.module}_sim_advance.c"
         adapter.write_text(advance_c(ir.module, names), encoding="utf-8")
-        library = Path(build) / f"lib{ir.module}_fsm.so"
+        library = Path(build) / f"_{ir.module}_sim.so"
         c_dir = generated / "c"
-        ran = build_shared(c_dir / f"{ir.module}_fsm.c", library, ("-I", str(c_dir), str(adapter)))
+        ran = build_shared(c_dir / f"{ir.module}_fsm.c", library, ("-I", str(c_dir), "-I", str(headers), str(adapter)))
         if ran.returncode != 0:
             raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
-        return Controller(name, ir.states, names, initial, load_c_advance(library, ir.module))
+        extension = import_extension(library, f"_{ir.module}_sim")
+        return Controller(name, ir.states, names, initial, extension.advance)  # type: ignore[attr-defined]

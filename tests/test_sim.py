@@ -9,15 +9,17 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import sysconfig
 import tempfile
 import time
+import types
 from pathlib import Path
 
 import pytest
 
-from mlca_verify.errors import SpecError
+from mlca_verify.errors import SpecError, ToolError
 from sim_check.cli import main
-from sim_check.controllers import load_controller, setup_of
+from sim_check.controllers import load_controller, python_headers, setup_of
 from sim_check.reads import Reads
 from sim_check.runner import TRACE_STEPS, ClosedLoop, run_once, run_plain, sumo_args
 from sim_check.scenario import build, load_scenario
@@ -306,3 +308,24 @@ def test_the_c_controllers_one_call_a_step_agrees_with_the_python_machine(machin
         for values in itertools.product((False, True), repeat=len(c.inputs)):
             inputs = dict(zip(c.inputs, values, strict=True))
             assert c.advance(state, inputs) == py.advance(state, inputs), (state, inputs)
+
+
+def test_the_c_controllers_step_is_an_extension_function_that_checks_its_arguments() -> None:
+    c = load_controller("mlca-c")
+    assert isinstance(c.packed, types.BuiltinFunctionType)  # imported from the built library, no ctypes between
+    n = len(c.inputs)
+    with pytest.raises(TypeError, match=f"advance takes the state and {n} inputs"):
+        c.packed(0, True)
+    with pytest.raises(TypeError):
+        c.packed("IDLE", *[True] * n)
+    for state in range(len(c.states)):
+        for values in itertools.product((0, 1), repeat=n):  # any truthy value is true
+            assert c.packed(state, *values) == c.packed(state, *map(bool, values))
+
+
+def test_building_the_c_controller_without_pythons_headers_says_what_to_install(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.setattr(sysconfig, "get_paths", lambda: {"include": str(tmp_path)})
+    with pytest.raises(ToolError, match=r"no Python\.h in .*python3-dev"):
+        python_headers()
