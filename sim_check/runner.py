@@ -327,6 +327,8 @@ class ClosedLoop:
     def decide_mobil(
         self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
     ) -> None:
+        """MOBIL (sim_check.mobil) decides, where the AV makes lane decisions; the end of the acceleration lane is
+        a standing obstacle to it."""
         edge, lane, pos = where
         if not decides_on(edge):
             return
