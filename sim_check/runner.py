@@ -152,7 +152,7 @@ class ClosedLoop:
         self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
         # the side each state of the machine moves to: +1 left, -1 right, 0 none
         self.sides = tuple(SIDES.get(s, 0) for s in self.ctrl.states) if self.ctrl else ()
-        self.decide = {"fsm": self.decide_fsm, "without": self.decide_without, "mobil": self.decide_mobil}.get(
+        self.decide = {"fsm": self.decide_sensed, "without": self.decide_sensed, "mobil": self.decide_mobil}.get(
             setup.kind
         )
         self.scenario = scenario
@@ -293,34 +293,20 @@ class ClosedLoop:
         lines = "".join(f"{av}|{edge}|{lane}|{pos:.3f}\n" for av, edge, lane, pos in self.trail)
         return hashlib.sha256(lines.encode()).hexdigest()
 
-    def decide_fsm(
+    def decide_sensed(
         self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
     ) -> None:
-        """The generated machine decides from the sensed inputs; a lane it moves to is claimed for the other AVs."""
+        """The sensed inputs decide: through the generated machine (fsm), whose lane is then claimed for the other
+        AVs, or, "without algorithm", wherever N points (the direction is 0 exactly when N does not hold)."""
         sensed = sense(
             self.read, self.network, av.id, where, target=self.target, claims=claims, leader=leader, speed=speed
         )
         if sensed is None:
             return
-        inputs = sensed[0]
-        side = self.machine(av, t, inputs)
-        if side and self.command(av, t, where[1] + side):
+        inputs, direction = sensed
+        side = self.machine(av, t, inputs) if self.ctrl is not None else direction
+        if side and self.command(av, t, where[1] + side) and self.ctrl is not None:
             claims.append(Claim(av.id, where[0], where[1] + side, where[2]))
-        if inputs["N"] or av.need is not None:
-            self.account(av, inputs, side)
-
-    def decide_without(
-        self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
-    ) -> None:
-        """ "Without algorithm": the AV goes wherever N points (the direction is 0 exactly when N does not hold)."""
-        sensed = sense(
-            self.read, self.network, av.id, where, target=self.target, claims=claims, leader=leader, speed=speed
-        )
-        if sensed is None:
-            return
-        inputs, side = sensed
-        if side:
-            self.command(av, t, where[1] + side)
         if inputs["N"] or av.need is not None:
             self.account(av, inputs, side)
 

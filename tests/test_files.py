@@ -1,4 +1,5 @@
-"""Output files are written whole (an interrupted write leaves the previous file and no stray temporary), and\nCtrl-C ends a command with a message."""
+"""Output files are written whole (an interrupted write leaves the previous file and no stray temporary), and
+Ctrl-C ends a command with a message."""
 
 from __future__ import annotations
 
