@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from mlca_verify import cli
 from mlca_verify.cli import main
 
 ROOT = Path(__file__).parent.parent
@@ -125,3 +126,49 @@ def test_console_script_runs_as_a_process() -> None:
 def test_unwritable_json_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["check", "spec/mlca.toml", "--json", "/nonexistent/dir/out.json", "--quiet"]) == 2
     assert capsys.readouterr().err.startswith("/nonexistent/dir/out.json: error: cannot write")
+
+
+def _broken(args: object) -> int:
+    raise ZeroDivisionError("a bug")
+
+
+def test_an_internal_error_is_one_line_and_exit_3(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(cli.COMMANDS, "check", _broken)
+    assert cli.main(["check", "spec/mlca.toml"]) == 3
+    err = capsys.readouterr().err
+    assert err.splitlines() == [
+        "mlca-verify: internal error: ZeroDivisionError: a bug (run again with --debug for the traceback)"
+    ]
+
+
+def test_debug_prints_the_traceback_of_an_internal_error(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(cli.COMMANDS, "check", _broken)
+    assert cli.main(["check", "spec/mlca.toml", "--debug"]) == 3
+    err = capsys.readouterr().err
+    assert err.startswith("Traceback (most recent call last):")
+    assert "ZeroDivisionError: a bug" in err
+
+
+def test_an_unwritable_output_folder_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder\n")
+    assert cli.main(["gen", str(ROOT / "spec" / "mlca.toml"), "--out", str(blocker / "out")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1
+    assert "Not a directory" in err
+    assert "Traceback" not in err
+
+
+def test_an_error_message_cannot_carry_terminal_control_characters(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "x.toml"
+    spec.write_text((ROOT / "spec" / "mlca.toml").read_text().replace('initial = "IDLE"', 'initial = "\\u001b[2J"'))
+    assert cli.main(["check", str(spec)]) == 2
+    err = capsys.readouterr().err
+    assert "\x1b" not in err
+    assert "initial state '\\x1b[2J' is not a state" in err

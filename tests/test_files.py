@@ -3,6 +3,7 @@ Ctrl-C ends a command with a message."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from types import ModuleType
 
@@ -54,3 +55,40 @@ def test_ctrl_c_ends_a_command_with_130_and_no_traceback(
         cli.entry()
     assert ended.value.code == 130
     assert capsys.readouterr().err == "\ninterrupted\n"
+
+
+def test_a_device_is_written_through_not_replaced(tmp_path: Path) -> None:
+    before = Path("/dev/null").stat()
+    write_atomic(Path("/dev/null"), "{}\n")
+    after = Path("/dev/null").stat()
+    assert (after.st_ino, after.st_mode, after.st_rdev) == (before.st_ino, before.st_mode, before.st_rdev)
+
+
+def test_a_fifo_is_written_through(tmp_path: Path) -> None:
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    reader = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        write_atomic(fifo, "through\n")
+        assert os.read(reader, 100) == b"through\n"
+    finally:
+        os.close(reader)
+    assert fifo.is_fifo()
+
+
+def test_a_symlink_keeps_its_link_and_its_target_is_replaced(tmp_path: Path) -> None:
+    target = tmp_path / "real.json"
+    target.write_text("old\n")
+    link = tmp_path / "link.json"
+    link.symlink_to(target.name)
+    write_atomic(link, "new\n")
+    assert link.is_symlink()
+    assert target.read_text() == "new\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.json", "real.json"]
+
+
+def test_json_to_dev_stdout_reaches_the_output(capfd: pytest.CaptureFixture[str]) -> None:
+    spec = str(Path(__file__).resolve().parents[1] / "spec" / "mlca.toml")
+    assert mlca_cli.main(["check", spec, "--only", "A3", "--quiet", "--json", "/dev/stdout"]) == 0
+    out = capfd.readouterr().out
+    assert '"schema": "mlca-verify.check/' in out

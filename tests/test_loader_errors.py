@@ -150,7 +150,92 @@ CASES = [
     (
         "non-positive within",
         ('goal = "state == B"', 'goal = "state == B"\nwithin = 0'),
-        "toy.toml:26:10: error: 'within' must be a positive number of steps, got 0",
+        "toy.toml:26:10: error: 'within' must be a number of steps from 1 to 1000, got 0",
+    ),
+    (
+        "within past its limit",
+        ('goal = "state == B"', 'goal = "state == B"\nwithin = 1000000000'),
+        "toy.toml:26:10: error: 'within' must be a number of steps from 1 to 1000, got 1000000000",
+    ),
+    (
+        "trailing newline in a state name",
+        ('["A", "B"]', '["A", "B\\n"]'),
+        "toy.toml:4:10: error: state name 'B\\n' is not an identifier",
+    ),
+    (
+        "trailing newline in a property id",
+        ('id = "inv"', 'id = "inv\\n"'),
+        "toy.toml:18:6: error: invariant id 'inv\\n' must start with a letter",
+    ),
+    (
+        "state named like the generated INITIAL",
+        ('["A", "B"]', '["A", "INITIAL"]'),
+        "toy.toml:4:16: error: state name 'INITIAL' clashes with the generated C name <MACHINE>_INITIAL",
+    ),
+    (
+        "state named like the header guard",
+        ('["A", "B"]', '["A", "FSM_H"]'),
+        "toy.toml:4:16: error: state name 'FSM_H' clashes with the generated C name <MACHINE>_FSM_H",
+    ),
+    (
+        "input named like a Python class attribute",
+        ("y = {", "mro = {"),
+        "toy.toml:9:1: error: input name 'mro' clashes with an attribute of the generated Inputs class",
+    ),
+    (
+        "state named like an IntEnum attribute",
+        ('["A", "B"]', '["A", "value"]'),
+        "toy.toml:4:16: error: state name 'value' clashes with an attribute of the generated State enum",
+    ),
+    (
+        "input named like a stdio macro",
+        ("y = {", "EOF = {"),
+        "toy.toml:9:1: error: input name 'EOF' is a macro of the C standard headers",
+    ),
+    (
+        "input named like an emitted test's macro",
+        ("y = {", "STEP_COUNT = {"),
+        "toy.toml:9:1: error: input name 'STEP_COUNT' clashes with a macro the emitted C tests define",
+    ),
+    (
+        "double underscore",
+        ('["A", "B"]', '["A", "B__1_t"]'),
+        "toy.toml:4:16: error: state name 'B__1_t' contains '__'",
+    ),
+    (
+        "machine name too long",
+        ('name = "Toy"', f'name = "{"M" * 300}"'),
+        "toy.toml:2:8: error: machine name 'MMMMMMMMMMMMMMMMMMMM...' is 300 characters long (at most 32)",
+    ),
+    (
+        "property id that reads as a result prefix",
+        ('id = "inv"', 'id = "equiv"'),
+        "toy.toml:18:6: error: invariant id 'equiv' is the name of a built-in check",
+    ),
+    (
+        "deep parentheses",
+        ("x and not y", "(" * 170 + "x" + ")" * 170),
+        "toy.toml:14:109: error: bad guard '(((((((((((((((((((((((((((((((((((((((((((((((((((((((((((('...: expression nested more than 100 deep",
+    ),
+    (
+        "long chain of or",
+        ("x and not y", " or ".join(["x"] * 1000)),
+        "toy.toml:14:9: error: bad guard 'x or x or x or x or x or x or x or x or x or x or x or x or '...: expression nested more than 100 deep (split a long chain with parentheses)",
+    ),
+    (
+        "long chain of not",
+        ("x and not y", "not " * 1000 + "x"),
+        "toy.toml:14:409: error: bad guard 'not not not not not not not not not not not not not not not '...: expression nested more than 100 deep",
+    ),
+    (
+        "long chain of implications",
+        ("x and not y", " -> ".join(["x"] * 1000)),
+        "toy.toml:14:511: error: bad guard 'x -> x -> x -> x -> x -> x -> x -> x -> x -> x -> x -> x -> '...: expression nested more than 100 deep",
+    ),
+    (
+        "deeply nested TOML arrays",
+        ('cite = "toy"', 'cite = "toy"\nx = ' + "[" * 1000 + "]" * 1000),
+        "toy.toml:1:1: error: invalid TOML: arrays or tables nested too deeply",
     ),
     (
         "state in assumption",
@@ -177,6 +262,13 @@ def test_bad_spec_message(label: str, edit: tuple[str, str], expected: str) -> N
     assert old in GOOD, label
     message = error_of(GOOD.replace(old, new, 1))
     assert message.startswith(expected), message
+
+
+def test_property_ids_that_are_one_c_name_clash() -> None:
+    text = GOOD.replace('id = "inv"', 'id = "a.b"').replace('id = "live"', 'id = "a-b"')
+    assert error_of(text) == (
+        "toy.toml:22:3: error: property id 'a-b' clashes with 'a.b' (names must differ in more than case, '-' and '.')"
+    )
 
 
 def test_missing_compared_spec(tmp_path: Path) -> None:

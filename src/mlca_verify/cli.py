@@ -1,18 +1,19 @@
 """The command line: parse arguments, call the library, print, return an exit code.
 
-Exit codes everywhere: 0 every verdict as expected, 1 a finding, 2 bad input or usage (one line on stderr).
+Exit codes everywhere: 0 every verdict as expected, 1 a finding, 2 bad input or usage (one line on stderr),
+3 an internal error (one line; the traceback with --debug), 130 interrupted (mlca_verify.cli_base).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from mlca_verify import __version__, ci_formats, report
+from mlca_verify import __version__, ci_formats, cli_base, report
+from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser
 from mlca_verify.codegen import drift, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import Outcome
@@ -20,7 +21,7 @@ from mlca_verify.conform.tools import run
 from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
-from mlca_verify.errors import MlcaError, ToolError, UsageError
+from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.evidence import collect, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import write_atomic
@@ -30,20 +31,13 @@ from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
 
-EXIT_OK, EXIT_FINDING, EXIT_USAGE = 0, 1, 2
-EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report Ctrl-C
-
-
-class Parser(argparse.ArgumentParser):
-    """argparse that raises `UsageError` (one line, exit 2) instead of printing usage and exiting."""
-
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(f"{self.prog}: error: {message}")
+__all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = Parser(prog="mlca-verify", description="Prove, compare and generate the MLCA lane-change machine.")
     parser.add_argument("--version", action="version", version=f"mlca-verify {__version__}")
+    parser.add_argument(cli_base.DEBUG_FLAG, action="store_true", help="print the traceback of an internal error")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
 
     check = sub.add_parser("check", help="prove every built-in check and declared property of each spec")
@@ -56,6 +50,7 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--sarif", metavar="FILE", help="also write SARIF 2.1.0: findings at their spec lines")
     check.add_argument("--emit-tests", metavar="DIR", help="write a pytest and a C test replaying each violation")
     check.add_argument("--generated", default="generated", metavar="DIR", help="generated code the tests use")
+    _allow_outside(check)
 
     diff = sub.add_parser(
         "diff", help="regression gate: verdicts, transitions and behaviour that changed from OLD to NEW"
@@ -63,6 +58,7 @@ def _parser() -> argparse.ArgumentParser:
     diff.add_argument("left", metavar="OLD", help="the spec before the change")
     diff.add_argument("right", metavar="NEW", help="the spec after the change")
     diff.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
+    _allow_outside(diff)
 
     gen = sub.add_parser("gen", help="generate Python and C99 code from specs (or check generated/ for drift)")
     gen.add_argument("specs", nargs="*", metavar="SPEC", help="spec files (default: spec/*.toml)")
@@ -99,6 +95,14 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _allow_outside(command: argparse.ArgumentParser) -> None:
+    command.add_argument(
+        "--allow-outside",
+        action="store_true",
+        help="let [[compare]] name specs outside the spec's folder tree and the working directory's",
+    )
+
+
 def write_text(path: str, text: str) -> None:
     try:
         write_atomic(Path(path), text)
@@ -122,7 +126,7 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    loaded: list[LoadedSpec] = [load_spec(p) for p in args.specs]
+    loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
     for spec in loaded:
         results = _select(check_all(spec.machine, args.timeout_ms), args.only)
@@ -156,7 +160,7 @@ def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path,
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
-    old, new = load_spec(args.left), load_spec(args.right)
+    old, new = (load_spec(p, confine=not args.allow_outside) for p in (args.left, args.right))
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     print(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
     print(report.regression_text(changes, transition_changes(old.machine, new.machine)))
@@ -263,33 +267,20 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     return EXIT_OK if ev.ok else EXIT_FINDING
 
 
+COMMANDS = {
+    "check": cmd_check,
+    "diff": cmd_diff,
+    "gen": cmd_gen,
+    "conform": cmd_conform,
+    "diagram": cmd_diagram,
+    "evidence": cmd_evidence,
+}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI; return the exit code. User mistakes print one line on stderr and return 2."""
-    try:
-        args = _parser().parse_args(argv)
-        commands = {
-            "check": cmd_check,
-            "diff": cmd_diff,
-            "gen": cmd_gen,
-            "conform": cmd_conform,
-            "diagram": cmd_diagram,
-            "evidence": cmd_evidence,
-        }
-        command = commands[args.command]
-        return command(args)
-    except MlcaError as err:
-        print(str(err).splitlines()[0], file=sys.stderr)
-        return EXIT_USAGE
+    """Run the CLI; return the exit code. Every failure prints one line on stderr (see `cli_base`)."""
+    return cli_base.run_guarded("mlca-verify", _parser(), COMMANDS, sys.argv[1:] if argv is None else argv)
 
 
 def entry() -> None:
-    try:
-        code = main()
-        sys.stdout.flush()
-    except BrokenPipeError:  # the reader went away (`| head`): not an error of ours
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        code = EXIT_OK
-    except KeyboardInterrupt:  # Ctrl-C: output files are written whole or not at all (mlca_verify.files)
-        print("\ninterrupted", file=sys.stderr)
-        code = EXIT_INTERRUPTED
-    sys.exit(code)
+    cli_base.entry(main)

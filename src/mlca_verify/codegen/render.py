@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import jinja2
 
+from mlca_verify import escape
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, show
@@ -104,9 +106,28 @@ def c_ident(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_]", "_", text)
 
 
-def c_comment(text: str) -> str:
-    """Text safe inside a C block comment."""
-    return text.replace("*/", "* /").replace("/*", "/ *")
+class Escaped(str):
+    """Text a filter made safe for the place it is written (the template environment accepts it as it is)."""
+
+
+_RAW_SAFE = re.compile(r"[\x20-\x7e]*")
+_RAW_HAZARDS = ("*/", "/*", '"', "'", "\\", "??")
+
+
+def _plain(text: str) -> bool:
+    return _RAW_SAFE.fullmatch(text) is not None and not any(hazard in text for hazard in _RAW_HAZARDS)
+
+
+def _finalize(value: object) -> object:
+    """Every `{{ ... }}` passes here: filtered text goes through; other text must be plain printable ASCII with
+    no quote, backslash or comment delimiter, so spec text cannot reach a template unescaped by mistake."""
+    if isinstance(value, str) and not isinstance(value, Escaped) and not _plain(value):
+        raise CodegenError(f"error: unescaped text {value[:40]!r} reached a template: it needs an escaping filter")
+    return value
+
+
+def _escaping(function: Callable[..., str]) -> Callable[..., Escaped]:
+    return lambda *args: Escaped(function(*args))
 
 
 def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
@@ -114,15 +135,28 @@ def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
         raise CodegenError(f"{template_dir}: error: template directory not found")
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(template_dir)),
+        finalize=_finalize,
         undefined=jinja2.StrictUndefined,
         keep_trailing_newline=True,
         trim_blocks=True,
         lstrip_blocks=True,
         autoescape=False,
     )
-    env.filters.update(
-        negate=Not, show=show, py=py_expr, c=c_expr, ccond=c_condition, acsl=acsl_expr, cid=c_ident, ccomment=c_comment
-    )
+    env.filters.update(negate=Not, show=show, cid=c_ident, composed=Escaped)  # composed: a macro's own output
+    code: dict[str, Callable[..., str]] = {
+        "py": py_expr,
+        "c": c_expr,
+        "ccond": c_condition,
+        "acsl": acsl_expr,
+    }  # validated names and operators
+    text: dict[str, Callable[..., str]] = {
+        "ccomment": escape.c_comment,
+        "cstr": escape.c_string,
+        "pycomment": escape.py_comment,
+        "pydoc": escape.py_docstring,
+        "pystr": escape.py_string,
+    }
+    env.filters.update({name: _escaping(function) for name, function in {**code, **text}.items()})
     return env
 
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import hashlib
+import os
 import re
+import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +18,7 @@ from mlca_verify.spec.shape import ShapeChecker
 
 __all__ = ["LoadedSpec", "load_spec", "load_text"]
 
+MAX_SPEC_BYTES = 2_000_000
 _TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
 
 
@@ -42,14 +45,31 @@ def load_text(text: str, file: str, load_other: LoadOther | None = None) -> Mach
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise _toml_error(file, err) from None
+    except RecursionError:
+        raise SpecError(Loc(file, 1, 1), "invalid TOML: arrays or tables nested too deeply") from None
     where = Locator(file, text)
     ShapeChecker(doc, where).check()
     return MeaningChecker(doc, where, load_other).build()
 
 
+def _read_bytes(path: Path) -> bytes:
+    """The bytes of a regular file of at most `MAX_SPEC_BYTES` (a FIFO or a device is refused, not read)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError as err:
+        raise UsageError(f"{path}: error: cannot read spec: {err.strerror or err}") from None
+    with os.fdopen(fd, "rb") as file:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise UsageError(f"{path}: error: cannot read spec: not a regular file")
+        data = file.read(MAX_SPEC_BYTES + 1)
+    if len(data) > MAX_SPEC_BYTES:
+        raise UsageError(f"{path}: error: spec larger than {MAX_SPEC_BYTES // 1_000_000} MB")
+    return data
+
+
 def _read(path: Path) -> tuple[str, str]:
     try:
-        data = path.read_bytes()
+        data = _read_bytes(path)
     except OSError as err:
         raise UsageError(f"{path}: error: cannot read spec: {err.strerror or err}") from None
     try:
@@ -60,15 +80,33 @@ def _read(path: Path) -> tuple[str, str]:
         raise SpecError(Loc(str(path), line, col), f"spec is not UTF-8 text (byte 0x{data[err.start]:02x})") from None
 
 
-def load_spec(path: str | Path, compare: bool = True) -> LoadedSpec:
-    """Load a spec file. With `compare`, machines named in `[[compare]]` are loaded too (one level)."""
+def _inside(path: Path, folders: list[Path]) -> bool:
+    resolved = path.resolve()
+    return any(resolved.is_relative_to(folder.resolve()) for folder in folders)
+
+
+def load_spec(path: str | Path, compare: bool = True, confine: bool = True) -> LoadedSpec:
+    """Load a spec file. With `compare`, machines named in `[[compare]]` are loaded too (one level); with
+    `confine`, only from the spec's own folder tree or the working directory's."""
     path = Path(path)
     text, digest = _read(path)
 
     def load_other(name: str, loc: Loc) -> Machine:
+        try:
+            return find_other(name, loc)
+        except OSError as err:
+            raise SpecError(loc, f"compared spec '{name[:80]}' cannot be read: {err.strerror or err}") from None
+
+    def find_other(name: str, loc: Loc) -> Machine:
         other = path.parent / name
+        if confine and not _inside(other, [path.parent, Path.cwd()]):
+            raise SpecError(
+                loc,
+                f"compared spec '{name[:80]}' lies outside the spec's folder and the working directory "
+                "(--allow-outside lifts this)",
+            )
         if not other.is_file():
-            raise SpecError(loc, f"compared spec '{name}' not found (looked for {other})")
+            raise SpecError(loc, f"compared spec '{name[:80]}' not found (looked for {str(other)[:200]})")
         return load_spec(other, compare=False).machine
 
     machine = load_text(text, str(path), load_other if compare else None)

@@ -10,7 +10,10 @@ Grammar, loosest binding first:
     atom    := '(' expr ')' | 'true' | 'false' | NAME
              | 'state' ('==' | '!=') NAME | 'state' 'in' '{' NAME (',' NAME)* '}'
 
-Names are resolved later, against the machine; this module only knows the syntax.
+Names are resolved later, against the machine; this module only knows the syntax. Work is bounded: the text is
+at most `MAX_LENGTH` characters and tokenized in one pass, and no expression nests deeper than `MAX_DEPTH`
+(parentheses, `not`, `->` and the operands of chained operators alike), so no later recursive walk over it
+can exhaust the stack.
 """
 
 from __future__ import annotations
@@ -47,25 +50,33 @@ class NameRef:
     state_offset: int = 0  # for a state name: where its 'state' keyword stands
 
 
-_TOKEN = re.compile(r"\s*(?:(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op><->|->|==|!=|[(){},]))")
+MAX_LENGTH = 10_000  # characters in one expression
+MAX_DEPTH = 100  # nesting of one expression
+
+_SPACE = re.compile(r"\s*")
+_TOKEN = re.compile(r"(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op><->|->|==|!=|[(){},])")
 _KEYWORDS = {"and", "or", "not", "true", "false", "state", "in"}
 
 
 def tokenize(text: str) -> list[Token]:
+    if len(text) > MAX_LENGTH:
+        raise ParseError(MAX_LENGTH, f"expression longer than {MAX_LENGTH} characters ({len(text)})")
     tokens: list[Token] = []
-    pos = 0
+    pos = _skip_space(text, 0)
     while pos < len(text):
-        if text[pos:].strip() == "":
-            break
         m = _TOKEN.match(text, pos)
         if m is None:
-            bad = len(text[pos:]) - len(text[pos:].lstrip()) + pos
-            raise ParseError(bad, f"unexpected character {text[bad]!r}")
+            raise ParseError(pos, f"unexpected character {text[pos]!r}")
         kind = "NAME" if m.group("name") else "OP"
-        tokens.append(Token(kind, m.group(kind.lower()), m.start(kind.lower())))
-        pos = m.end()
+        tokens.append(Token(kind, m.group(), pos))
+        pos = _skip_space(text, m.end())
     tokens.append(Token("END", "", len(text)))
     return tokens
+
+
+def _skip_space(text: str, pos: int) -> int:
+    m = _SPACE.match(text, pos)
+    return m.end() if m else pos
 
 
 class _Parser:
@@ -73,6 +84,13 @@ class _Parser:
         self.tokens = tokenize(text)
         self.pos = 0
         self.refs: list[NameRef] = []
+        self.depth = 0
+
+    def nest(self, offset: int) -> None:
+        """One level deeper (a parenthesis, a `not`, the right side of `->`); refused past `MAX_DEPTH`."""
+        self.depth += 1
+        if self.depth > MAX_DEPTH:
+            raise ParseError(offset, f"expression nested more than {MAX_DEPTH} deep")
 
     @property
     def tok(self) -> Token:
@@ -109,8 +127,12 @@ class _Parser:
 
     def implies(self) -> Expr:
         left = self.disj()
-        if self.accept("->"):
-            return BinOp("->", left, self.implies())
+        if self.tok.text == "->" and self.tok.kind == "OP":
+            self.nest(self.tok.offset)
+            self.pos += 1
+            right = self.implies()
+            self.depth -= 1
+            return BinOp("->", left, right)
         return left
 
     def disj(self) -> Expr:
@@ -126,15 +148,21 @@ class _Parser:
         return left
 
     def unary(self) -> Expr:
-        if self.accept("not"):
-            return Not(self.unary())
+        if self.tok.text == "not" and self.tok.kind == "NAME":
+            self.nest(self.tok.offset)
+            self.pos += 1
+            inner = self.unary()
+            self.depth -= 1
+            return Not(inner)
         return self.atom()
 
     def atom(self) -> Expr:
         tok = self.tok
         if self.accept("("):
+            self.nest(tok.offset)
             inner = self.iff()
             self.expect(")", "')'")
+            self.depth -= 1
             return inner
         if tok.kind != "NAME" or tok.text in _KEYWORDS - {"true", "false", "state"}:
             raise ParseError(
@@ -175,4 +203,19 @@ def parse_expr(text: str) -> tuple[Expr, list[NameRef]]:
     """Parse `text`; return the AST and every name it uses with its offset."""
     parser = _Parser(text)
     expr = parser.parse()
+    if depth(expr) > MAX_DEPTH:
+        raise ParseError(0, f"expression nested more than {MAX_DEPTH} deep (split a long chain with parentheses)")
     return expr, parser.refs
+
+
+def depth(expr: Expr) -> int:
+    """The height of the tree, counted without recursion."""
+    deepest, todo = 0, [(expr, 1)]
+    while todo:
+        node, level = todo.pop()
+        deepest = max(deepest, level)
+        if isinstance(node, BinOp):
+            todo += [(node.left, level + 1), (node.right, level + 1)]
+        elif isinstance(node, Not):
+            todo.append((node.arg, level + 1))
+    return deepest

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import keyword
-import re
 from collections.abc import Callable, Iterable
 from typing import Any, cast
 
@@ -23,22 +21,22 @@ from mlca_verify.model import (
 )
 from mlca_verify.spec.expr_parser import ParseError, parse_expr
 from mlca_verify.spec.locate import Locator, Path
+from mlca_verify.spec.names import IDENTIFIER, MACHINE_NAME_LIMIT, NAME_LIMIT, PROPERTY_ID, c_form, clash
 
-C_KEYWORDS = frozenset(
-    "auto break case char const continue default do double else enum extern float for goto if inline int "
-    "long register restrict return short signed sizeof static struct switch typedef union unsigned void "
-    "volatile while _Bool _Complex _Imaginary _Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert "
-    "_Thread_local bool true false NULL main".split()
-)
-EXPR_WORDS = frozenset({"and", "or", "not", "true", "false", "state", "in"})
 BUILTIN_PROPERTIES = frozenset({"determinism", "completeness"})
-_IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-_PROPERTY_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_\-.]*$")
+# Prefixes of the built-in checks' results (`fires:t1`, `reach:IDLE`, `equiv:OTHER`): ids that would be read as one.
+RESULT_PREFIXES = frozenset({"fires", "reach", "equiv"})
+WITHIN_LIMIT = 1000  # steps of a bounded response: its counterexample and its search grow with the bound
 SEMANTICS = ("first-match", "any-enabled")
 OTHERWISE = ("stay", "undefined")
 VERDICTS = ("holds", "violated")
 
 LoadOther = Callable[[str, Loc], Machine]
+
+
+def _quoted(text: str, limit: int = 60) -> str:
+    """Spec text quoted for a message: escaped as Python writes it, and cut after `limit` characters."""
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + "..."
 
 
 class MeaningChecker:
@@ -60,23 +58,26 @@ class MeaningChecker:
         def error(message: str) -> SpecError:
             return SpecError(loc or self.where.loc(path), message)
 
-        if not _IDENT.match(name):
-            raise error(f"{what} {name!r} is not an identifier (a letter, then letters, digits or '_')")
-        if keyword.iskeyword(name):
-            raise error(f"{what} '{name}' is a Python keyword")
-        if name in C_KEYWORDS:
-            raise error(f"{what} '{name}' is a C keyword or reserved name")
-        if name in EXPR_WORDS:
-            raise error(f"{what} '{name}' is a word of the expression language")
+        limit = MACHINE_NAME_LIMIT if what == "machine name" else NAME_LIMIT
+        if not IDENTIFIER.fullmatch(name):
+            raise error(f"{what} {_quoted(name)} is not an identifier (a letter, then letters, digits or '_')")
+        if len(name) > limit:
+            raise error(f"{what} '{name[:20]}...' is {len(name)} characters long (at most {limit})")
+        if (found := clash(name, what.split(maxsplit=1)[0])) is not None:
+            raise error(f"{what} '{name}' {found}")
 
     def distinct(self, path: Path, names: Iterable[tuple[str, Loc]], what: str) -> None:
         seen: dict[str, str] = {}
         for name, loc in names:
-            if (other := seen.get(name.lower())) is not None:
+            key = c_form(name).lower()
+            if (other := seen.get(key)) is not None:
                 if other == name:
                     raise SpecError(loc, f"duplicate {what} '{name}'")
-                raise SpecError(loc, f"{what} '{name}' clashes with '{other}' (names must differ in more than case)")
-            seen[name.lower()] = name
+                extra = "" if c_form(name + other) == name + other else ", '-' and '.'"
+                raise SpecError(
+                    loc, f"{what} '{name}' clashes with '{other}' (names must differ in more than case{extra})"
+                )
+            seen[key] = name
 
     # --- machine -------------------------------------------------------------------------------------
 
@@ -123,7 +124,7 @@ class MeaningChecker:
 
     def choice(self, path: Path, value: str, allowed: tuple[str, ...]) -> str:
         if value not in allowed:
-            raise self.fail(path, f"'{path[-1]}' must be one of {', '.join(allowed)}, got {value!r}")
+            raise self.fail(path, f"'{path[-1]}' must be one of {', '.join(allowed)}, got {_quoted(value)}")
         return value
 
     def inputs(self) -> tuple[Input, ...]:
@@ -144,12 +145,16 @@ class MeaningChecker:
         try:
             expr, refs = parse_expr(text)
         except ParseError as err:
-            raise SpecError(self.where.string_loc(path, err.offset), f"bad {role} {text!r}: {err.message}") from None
+            raise SpecError(
+                self.where.string_loc(path, err.offset), f"bad {role} {_quoted(text)}: {err.message}"
+            ) from None
         for ref in refs:
             loc = self.where.string_loc(path, ref.offset)
             if ref.is_state and not allow_state:
                 where = self.where.string_loc(path, ref.state_offset)
-                raise SpecError(where, f"{role} may not refer to the state ({role}s are over inputs only): {text!r}")
+                raise SpecError(
+                    where, f"{role} may not refer to the state ({role}s are over inputs only): {_quoted(text)}"
+                )
             if ref.is_state and ref.name not in self.states:
                 raise SpecError(loc, f"unknown state '{ref.name}' in {role} (states: {', '.join(self.states)})")
             if not ref.is_state and ref.name not in self.input_names:
@@ -194,10 +199,16 @@ class MeaningChecker:
         return name
 
     def property_id(self, path: Path, pid: str, what: str) -> None:
-        if not _PROPERTY_ID.match(pid):
-            raise self.fail(path, f"{what} {pid!r} must start with a letter and use letters, digits, '_', '-', '.'")
-        if pid in BUILTIN_PROPERTIES:
+        if not PROPERTY_ID.fullmatch(pid):
+            raise self.fail(
+                path, f"{what} {_quoted(pid)} must start with a letter and use letters, digits, '_', '-', '.'"
+            )
+        if len(pid) > NAME_LIMIT:
+            raise self.fail(path, f"{what} '{pid[:20]}...' is {len(pid)} characters long (at most {NAME_LIMIT})")
+        if pid in BUILTIN_PROPERTIES or pid in RESULT_PREFIXES:
             raise self.fail(path, f"{what} '{pid}' is the name of a built-in check")
+        if "__" in c_form(pid):
+            raise self.fail(path, f"{what} '{pid}' clashes with generated names, which join parts with '__'")
 
     def verdict(self, path: Path, item: dict[str, Any]) -> Verdict:
         return cast(Verdict, self.choice((*path, "expect"), item.get("expect", "holds"), VERDICTS))
@@ -218,8 +229,10 @@ class MeaningChecker:
             path: Path = ("liveness", index)
             self.property_id((*path, "id"), item["id"], "liveness id")
             within = item.get("within")
-            if within is not None and within < 1:
-                raise self.fail((*path, "within"), f"'within' must be a positive number of steps, got {within}")
+            if within is not None and not 1 <= within <= WITHIN_LIMIT:
+                raise self.fail(
+                    (*path, "within"), f"'within' must be a number of steps from 1 to {WITHIN_LIMIT}, got {within}"
+                )
             result.append(
                 Liveness(
                     id=item["id"],

@@ -1,0 +1,74 @@
+"""The names a spec may give: identifiers that cannot clash with anything the generated code, its harnesses or
+the languages define. Pure data and one lookup; the loader reports the clash at the name's position."""
+
+from __future__ import annotations
+
+import keyword
+import re
+from enum import IntEnum
+
+NAME_LIMIT = 64  # characters in a state, input or property name
+MACHINE_NAME_LIMIT = 32  # the machine's name prefixes every generated C name and file name
+
+IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+PROPERTY_ID = re.compile(r"[A-Za-z][A-Za-z0-9_\-.]*")
+
+
+def c_form(name: str) -> str:
+    """A name as it appears inside generated C identifiers (property ids may hold '-' and '.')."""
+    return re.sub(r"[-.]", "_", name)
+
+
+C_KEYWORDS = frozenset(
+    "auto break case char const continue default do double else enum extern float for goto if inline int "
+    "long register restrict return short signed sizeof static struct switch typedef union unsigned void "
+    "volatile while _Bool _Complex _Imaginary _Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert "
+    "_Thread_local main".split()
+)
+# Object-like macros of the C headers that the generated code, its harnesses and its emitted tests include
+# (<stdbool.h>, <stddef.h>, <stdio.h>; `gcc -dM -E`, checked by a test).
+C_HEADER_MACROS = frozenset(
+    "BUFSIZ EOF FILENAME_MAX FOPEN_MAX L_tmpnam NULL SEEK_CUR SEEK_END SEEK_SET TMP_MAX bool false offsetof "
+    "stderr stdin stdout true errno assert".split()
+)
+# Macros that emitted C tests define around the generated header.
+EMITTED_TEST_MACROS = frozenset("CAT CAT2 FSM ST CHECK_FROM STEP_COUNT STEPS FSM_HEADER FSM_PREFIX FSM_MACRO".split())
+EXPR_WORDS = frozenset({"and", "or", "not", "true", "false", "state", "in"})
+# The generated header defines <MACHINE>_<STATE> for every state, <MACHINE>_INITIAL and the guard <MACHINE>_FSM_H.
+GENERATED_STATE_SUFFIXES = frozenset({"INITIAL", "FSM_H"})
+# Public attributes of the classes that hold states (an IntEnum) and inputs (a dataclass) in generated Python.
+PYTHON_ATTRIBUTES = frozenset(
+    name for source in (int, type, IntEnum) for name in dir(source) if not name.startswith("_")
+) | {"name", "value"}
+
+
+def _language_clash(name: str) -> str | None:
+    if keyword.iskeyword(name):
+        return "is a Python keyword"
+    if name in C_KEYWORDS:
+        return "is a C keyword or reserved name"
+    if name in C_HEADER_MACROS:
+        return "is a macro of the C standard headers the generated code includes"
+    if name in EXPR_WORDS:
+        return "is a word of the expression language"
+    if name.startswith(("Py", "PY")):
+        return "is in the namespace of Python's C API (names starting Py or PY)"
+    return None
+
+
+def clash(name: str, role: str) -> str | None:
+    """Why `name`, used as a `role` ("state", "input", "machine"), cannot be used ("is a Python keyword",
+    "clashes with ..."); None when it is free."""
+    if "__" in name:
+        return "contains '__', which generated names use to join their parts"
+    found = _language_clash(name)
+    if found is not None:
+        return found
+    if role in ("state", "input") and name in EMITTED_TEST_MACROS:
+        return "clashes with a macro the emitted C tests define"
+    if role in ("state", "input") and name in PYTHON_ATTRIBUTES:
+        holder = "the generated State enum (an IntEnum)" if role == "state" else "the generated Inputs class"
+        return f"clashes with an attribute of {holder}"
+    if role == "state" and name in GENERATED_STATE_SUFFIXES:
+        return f"clashes with the generated C name <MACHINE>_{name}"
+    return None
