@@ -10,6 +10,9 @@
 /*@ predicate mlca_reachable(mlca_state_t s) =
   @   s == MLCA_IDLE || s == MLCA_WAITING || s == MLCA_MOVING_LEFT || s == MLCA_MOVING_RIGHT;
   @*/
+/*@ predicate mlca_inputs_bool(mlca_inputs_t in) =
+  @   (in.N == 0 || in.N == 1) && (in.W == 0 || in.W == 1) && (in.L == 0 || in.L == 1) && (in.R == 0 || in.R == 1);
+  @*/
 /*@ predicate mlca_inv_A1(mlca_inputs_t in, mlca_state_t s) =
   @   ((s == MLCA_IDLE) || (s == MLCA_WAITING) || (s == MLCA_MOVING_LEFT) || (s == MLCA_MOVING_RIGHT));
   @*/
@@ -26,7 +29,8 @@
   @   ((((in.N && in.W) && (!in.L)) && (!in.R)) ==> ((s == MLCA_IDLE) || (s == MLCA_WAITING)));
   @*/
 
-/*@ assigns \nothing;
+/*@ requires mlca_inputs_bool(in);
+  @ assigns \nothing;
   @ behavior IDLE__1_reset:
   @   assumes s == MLCA_IDLE;
   @   assumes (!in.N);
@@ -196,7 +200,8 @@ bool mlca_state_valid(mlca_state_t s)
     return valid;
 }
 
-/*@ assigns \nothing;
+/*@ requires mlca_inputs_bool(in);
+  @ assigns \nothing;
   @ ensures \result <==> (mlca_valid(s) && mlca_inv_A1(in, s) && mlca_inv_A2(in, s) && mlca_inv_A3(in, s) && mlca_inv_A4(in, s) && mlca_inv_no_move_when_waiting(in, s));
   @*/
 bool mlca_invariants_hold(mlca_inputs_t in, mlca_state_t s)

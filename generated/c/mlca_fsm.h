@@ -25,6 +25,11 @@ typedef struct {
     bool R; /* the gap in the right lane is safe (prose: 'Right Side Empty') (Alg. 1 Require; Sec. III-B) */
 } mlca_inputs_t;
 
+/* Every input is false or true (0 or 1), as C99 requires of a bool: bytes with other values (a memset, an
+ * unchecked copy) are undefined behaviour before this code runs, and no code can normalise them afterwards.
+ * The contracts state it (requires mlca_inputs_bool); a caller built with -fsanitize=bool reports a
+ * breach, as `mlca-verify conform` shows (check sanitizers). */
+
 /* The state after one step from s under in; an out-of-range s goes to MLCA_INITIAL. */
 mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in);
 

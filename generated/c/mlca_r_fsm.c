@@ -10,6 +10,9 @@
 /*@ predicate mlca_r_reachable(mlca_r_state_t s) =
   @   s == MLCA_R_IDLE || s == MLCA_R_WAITING || s == MLCA_R_MOVING_LEFT || s == MLCA_R_MOVING_RIGHT;
   @*/
+/*@ predicate mlca_r_inputs_bool(mlca_r_inputs_t in) =
+  @   (in.N == 0 || in.N == 1) && (in.W == 0 || in.W == 1) && (in.L == 0 || in.L == 1) && (in.R == 0 || in.R == 1);
+  @*/
 /*@ predicate mlca_r_inv_A1(mlca_r_inputs_t in, mlca_r_state_t s) =
   @   ((s == MLCA_R_IDLE) || (s == MLCA_R_WAITING) || (s == MLCA_R_MOVING_LEFT) || (s == MLCA_R_MOVING_RIGHT));
   @*/
@@ -29,7 +32,8 @@
   @   (((in.N && (!in.L)) && (!in.R)) ==> ((s == MLCA_R_IDLE) || (s == MLCA_R_WAITING)));
   @*/
 
-/*@ assigns \nothing;
+/*@ requires mlca_r_inputs_bool(in);
+  @ assigns \nothing;
   @ behavior IDLE__1_reset:
   @   assumes s == MLCA_R_IDLE;
   @   assumes (!in.N);
@@ -211,7 +215,8 @@ bool mlca_r_state_valid(mlca_r_state_t s)
     return valid;
 }
 
-/*@ assigns \nothing;
+/*@ requires mlca_r_inputs_bool(in);
+  @ assigns \nothing;
   @ ensures \result <==> (mlca_r_valid(s) && mlca_r_inv_A1(in, s) && mlca_r_inv_A2(in, s) && mlca_r_inv_A3(in, s) && mlca_r_inv_A4(in, s) && mlca_r_inv_no_move_when_waiting(in, s) && mlca_r_inv_no_move_without_gap(in, s));
   @*/
 bool mlca_r_invariants_hold(mlca_r_inputs_t in, mlca_r_state_t s)

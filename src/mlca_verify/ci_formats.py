@@ -9,6 +9,7 @@ from xml.etree import ElementTree as ET
 
 from mlca_verify import __version__
 from mlca_verify.errors import Loc
+from mlca_verify.escape import xml_text
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine
 from mlca_verify.report import trace_text
@@ -43,6 +44,14 @@ def _message(r: Result) -> str:
     return f"{text}. {r.detail}" if r.detail else text
 
 
+def _xml_safe(root: ET.Element) -> None:
+    """Spec text in every attribute and text made characters XML 1.0 can hold (the serializer escapes markup)."""
+    for element in root.iter():
+        element.attrib.update({key: xml_text(value) for key, value in element.attrib.items()})
+        if element.text is not None:
+            element.text = xml_text(element.text)
+
+
 def junit_xml(checked: Sequence[Checked]) -> str:
     """One <testsuite> per spec, one <testcase> per property; a verdict other than expected is a <failure>."""
     root = ET.Element("testsuites", name="mlca-verify check")
@@ -73,6 +82,7 @@ def junit_xml(checked: Sequence[Checked]) -> str:
     root.set("tests", str(total))
     root.set("failures", str(failures))
     root.set("errors", "0")
+    _xml_safe(root)
     ET.indent(root)
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from xml.sax.saxutils import escape, quoteattr
 
+from mlca_verify.escape import one_line, printable, xml_comment, xml_text
 from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, show
 
 FORMATS = ("dot", "mermaid", "scxml")
@@ -58,11 +59,13 @@ def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> s
 
 
 def _dot_str(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+    """A DOT string: backslashes and quotes escaped, newlines as DOT's line breaks, other controls as escapes."""
+    lines = (printable(line.replace("\\", "\\\\").replace('"', '\\"')) for line in text.split("\n"))
+    return '"' + "\\n".join(lines) + '"'
 
 
 def to_mermaid(m: Machine) -> str:
-    lines = ["stateDiagram-v2", f"    %% {caption(m)}", f"    [*] --> {m.initial}"]
+    lines = ["stateDiagram-v2", f"    %% {one_line(caption(m))}", f"    [*] --> {m.initial}"]
     for state, priority, t in _edges(m):
         label = _label(m, priority, t).replace("<->", "iff").replace("->", "implies").replace(":", " ")
         lines.append(f"    {state} --> {t.target}: {label}")
@@ -88,7 +91,7 @@ def to_scxml(m: Machine) -> str:
     document order, which is first-match semantics; with no enabled transition the event changes nothing."""
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
-        f"<!-- {escape(caption(m))} -->",
+        f"<!-- {xml_comment(caption(m))} -->",
         "<!-- Send one event named 'step' per step, its data an object of booleans: "
         + escape(", ".join(m.input_names))
         + " -->",
@@ -96,13 +99,13 @@ def to_scxml(m: Machine) -> str:
     if m.semantics != "first-match":
         out.append("<!-- This machine is nondeterministic; SCXML resolves each choice by document order. -->")
     out.append(
-        f'<scxml xmlns="http://www.w3.org/2005/07/scxml" version="1.0" name={quoteattr(m.name)} '
+        f'<scxml xmlns="http://www.w3.org/2005/07/scxml" version="1.0" name={quoteattr(xml_text(m.name))} '
         f'initial={quoteattr(m.initial)} datamodel="ecmascript">'
     )
     for state in m.states:
         out.append(f"  <state id={quoteattr(state)}>")
         for t in m.outgoing(state):
-            out.append(f"    <!-- {escape(t.id)}: {escape(show(t.guard))} ({escape(t.cite)}) -->")
+            out.append(f"    <!-- {xml_comment(f'{t.id}: {show(t.guard)} ({t.cite})')} -->")
             out.append(
                 f'    <transition event="step" cond={quoteattr(js_expr(t.guard))} target={quoteattr(t.target)}/>'
             )

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mlca_verify.codegen.render import c_expr, c_ident, py_expr
+from mlca_verify.escape import c_comment, py_comment, py_docstring
 from mlca_verify.files import write_atomic
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Expr, Liveness, Machine, show
@@ -81,11 +82,11 @@ def python_test(spec: LoadedSpec, r: Replay, module_path: str) -> str:
     goal = (
         ""
         if r.kind == "invariant"
-        else f"\n\ndef goal(inputs, state, State):  # {show(r.expr)}\n    return {py_expr(r.expr)}\n"
+        else f"\n\ndef goal(inputs, state, State):  # {py_comment(show(r.expr))}\n    return {py_expr(r.expr)}\n"
     )
-    return f'''"""Regression test emitted by mlca-verify from {spec.path} (sha256 {spec.sha256}).
+    return f'''"""Regression test emitted by mlca-verify from {py_docstring(spec.path)} (sha256 {spec.sha256}).
 
-{spec.machine.name} violates {r.prop} ({r.kind}): {r.summary}. This test replays the counterexample and
+{spec.machine.name} violates {r.prop} ({r.kind}): {py_docstring(r.summary)}. This test replays the counterexample and
 fails while the defect is there. MLCA_FSM=path/to/other_fsm.py replays it on another machine.
 """
 
@@ -144,8 +145,8 @@ def c_test(spec: LoadedSpec, r: Replay) -> str:
     }}
     return 0;'''
     module = m.name.lower()
-    return f"""/* Regression test emitted by mlca-verify from {spec.path} (sha256 {spec.sha256}).
- * {m.name} violates {r.prop} ({r.kind}): {r.summary}.
+    return f"""/* Regression test emitted by mlca-verify from {c_comment(spec.path)} (sha256 {spec.sha256}).
+ * {m.name} violates {r.prop} ({r.kind}): {c_comment(r.summary)}.
  * Exit 1 while the defect is there. Build: gcc -std=c99 -I<generated/c> this.c <generated/c>/{module}_fsm.c
  * Another machine: -DFSM_HEADER='"x_fsm.h"' -DFSM_PREFIX=x_ -DFSM_MACRO=X_ */
 #include <stdbool.h>

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from mlca_verify.escape import terminal
 from mlca_verify.logic.equiv import Comparison, Region
 from mlca_verify.logic.results import Counterexample, Outcome, Result
 from mlca_verify.regress import TransitionChange, VerdictChange
@@ -26,6 +27,8 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[str]], indent: str = "
 
 
 def _clip(text: str, width: int) -> str:
+    """Spec text cut to `width` for a terminal table: control characters shown as escapes, never sent."""
+    text = terminal(text)
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
@@ -62,7 +65,10 @@ def results_text(spec_path: str, machine: str, results: Sequence[Result], inputs
     for r in results:
         status = "ok" if r.ok else "UNEXPECTED"
         rows.append([r.prop, r.kind, r.verdict, r.expected, status, _clip(r.cite, CITE_WIDTH)])
-    parts = [f"{spec_path} ({machine})", table(["property", "kind", "verdict", "expected", "", "cite"], rows, "  ")]
+    parts = [
+        f"{terminal(spec_path)} ({machine})",
+        table(["property", "kind", "verdict", "expected", "", "cite"], rows, "  "),
+    ]
     for r in results:
         if r.counterexample is not None and r.counterexample.steps:
             parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
