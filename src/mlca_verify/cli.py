@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -183,6 +184,16 @@ def _default_specs() -> list[str]:
     return found
 
 
+def writable_folder(folder: Path) -> None:
+    """Refuse, before any long work, an output folder that cannot be created or written."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UsageError(f"{folder}: error: cannot create the output folder: {err.strerror or err}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{folder}: error: the output folder is not writable")
+
+
 def cmd_gen(args: argparse.Namespace) -> int:
     out = Path(args.out)
     files: dict[str, str] = {}
@@ -197,6 +208,7 @@ def cmd_gen(args: argparse.Namespace) -> int:
             return EXIT_FINDING
         print(f"{len(files)} generated files up to date in {out}/")
         return EXIT_OK
+    writable_folder(out)
     for path, changed in write(files, out):
         print(f"{'wrote' if changed else 'unchanged'} {path}")
     return EXIT_OK
@@ -257,6 +269,7 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     db = Path(args.db) if args.db else None
     if db is not None and not db.is_file():
         raise UsageError(f"{db}: error: results database not found")
+    writable_folder(Path(args.out))
     print(
         f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True
     )

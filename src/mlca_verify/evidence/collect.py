@@ -13,6 +13,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 import z3
 
@@ -80,11 +81,12 @@ class Evidence:
 
 def collect(spec_path: str, readings: list[str], generated: Path, db: Path | None, generated_at: str) -> Evidence:
     spec = load_spec(spec_path)
+    loaded_readings = [load_spec(p, compare=False) for p in readings]
+    loop = closed_loop(db, spec.machine.name.lower())  # every input read before the long work starts
     results = check_all(spec.machine)
     outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
-    loaded_readings = [load_spec(p, compare=False) for p in readings]
     ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, db)
-    ev.loop = closed_loop(db, spec.machine.name.lower())
+    ev.loop = loop
     ev.data = document(ev)
     return ev
 
@@ -156,7 +158,7 @@ def closed_loop(db: Path | None, module: str) -> dict[str, Any]:
         "WHERE controller IN (?, ?)"
     )
     try:
-        with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
+        with sqlite3.connect(f"file:{quote(str(db))}?mode=ro", uri=True) as conn:
             runs, violations, failed = conn.execute(query, (f"{module}-py", f"{module}-c")).fetchone()
     except sqlite3.Error as err:
         raise UsageError(f"{db}: error: not a results database written by mlca-sim ({err})") from None
