@@ -84,7 +84,7 @@ def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, r
     solver = Solver(machine.input_names)
     for index, state in enumerate(machine.states):
         out = [t for t in machine.transitions if t.applies_to(state)]
-        codes = in_context([t.guard for t in out], solver)
+        codes = in_context([t.guard for t in out], solver, machine, state)
         branches = tuple(Branch(t.id, t.guard, c, t.target, t.cite) for t, c in zip(out, codes, strict=True))
         cases.append(StateCase(state, index, machine.cite, branches))
     module = machine.name.lower()

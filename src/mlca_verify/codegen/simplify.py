@@ -9,10 +9,13 @@ the code against contracts written with the spec's full guards.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import z3
 
 from mlca_verify.logic.solver import Solver, encode
-from mlca_verify.model import BinOp, Const, Expr, Not, mentions_state
+from mlca_verify.logic.tables import MAX_TABLE_INPUTS, Tables, none_before, remaining, tables_for
+from mlca_verify.model import BinOp, Const, Expr, Machine, Not, inputs_of, mentions_state
 
 
 def conjuncts(expr: Expr) -> list[Expr]:
@@ -33,12 +36,21 @@ def conjoin(parts: list[Expr]) -> Expr:
 def fold(expr: Expr, solver: Solver) -> Expr:
     """Replace every state-free subexpression that z3 proves constant by that constant, then tidy up.
 
-    Compilers reject some tautologies outright (`x == x` under -Werror), and a constant is what the code means."""
+    Compilers reject some tautologies outright (`x == x` under -Werror), and a constant is what the code means.
+    A subexpression whose truth table (over few inputs) has both values is not constant: z3 is not asked."""
+    names = [n for n in solver.names if n in inputs_of(expr)]
+    tables = Tables(names, solver.vars) if len(names) <= MAX_TABLE_INPUTS else None
+    return _fold(expr, solver, tables)
+
+
+def _fold(expr: Expr, solver: Solver, tables: Tables | None) -> Expr:
     if isinstance(expr, Not):
-        expr = Not(fold(expr.arg, solver))
+        expr = Not(_fold(expr.arg, solver, tables))
     elif isinstance(expr, BinOp):
-        expr = BinOp(expr.op, fold(expr.left, solver), fold(expr.right, solver))
+        expr = BinOp(expr.op, _fold(expr.left, solver, tables), _fold(expr.right, solver, tables))
     if isinstance(expr, Const) or mentions_state(expr):
+        return _tidy(expr)
+    if tables is not None and 0 < tables.table(expr) < tables.full:
         return _tidy(expr)
     formula = encode(expr, solver.vars)
     if solver.check(z3.Not(formula)) == "unsat":
@@ -73,15 +85,46 @@ def _tidy(expr: Expr) -> Expr:
     return expr
 
 
-def in_context(guards: list[Expr], solver: Solver) -> list[Expr]:
+def in_context(guards: list[Expr], solver: Solver, machine: Machine, state: str) -> list[Expr]:
     """The code condition of each guard of one state's first-match chain."""
-    result = []
-    for index, guard in enumerate(guards):
-        context = [z3.Not(encode(g, solver.vars)) for g in guards[:index]]
-        kept = conjuncts(fold(guard, solver))
-        for part in list(kept):
-            rest = [encode(p, solver.vars) for p in kept if p is not part]
-            if solver.check(z3.And(*context, *rest, z3.Not(encode(part, solver.vars)))) == "unsat":
-                kept = [p for p in kept if p is not part]
-        result.append(fold(conjoin(kept), solver))
-    return result
+    encoded = [encode(g, solver.vars) for g in guards]
+    contexts = none_before(machine, state, guards, encoded, solver.vars)
+    tables = tables_for(machine, guards, solver.vars)
+    known = remaining(tables, guards) if tables is not None else [None] * len(contexts)
+    return [
+        _in_context(guard, Context(formula, tables, table), solver)
+        for guard, formula, table in zip(guards, contexts, known, strict=False)
+    ]
+
+
+@dataclass(frozen=True)
+class Context:
+    """Where a branch is reached: its formula and, over few inputs, its truth table."""
+
+    formula: z3.BoolRef
+    tables: Tables | None
+    table: int | None
+
+    def may_fail(self, rest: list[Expr], part: Expr) -> bool:
+        """True when the truth tables show an input where the context and `rest` hold and `part` does not."""
+        if self.tables is None or self.table is None:
+            return False
+        table = self.table & ~self.tables.table(part)
+        for other in rest:
+            table &= self.tables.table(other)
+        return table != 0
+
+
+def _in_context(guard: Expr, context: Context, solver: Solver) -> Expr:
+    """Drop every conjunct of `guard` that the context and the conjuncts kept so far imply (z3 proves it)."""
+    parts = conjuncts(fold(guard, solver))
+    formulas = [encode(p, solver.vars) for p in parts]
+    kept = list(range(len(parts)))
+    for index, part in enumerate(parts):
+        others = [k for k in kept if parts[k] is not part]
+        if context.may_fail([parts[k] for k in others], part):
+            continue
+        rest = [formulas[k] for k in others]
+        if solver.check(z3.And(context.formula, *rest, z3.Not(formulas[index]))) == "unsat":
+            kept = [k for k in kept if parts[k] is not part]
+    return fold(conjoin([parts[k] for k in kept]), solver)

@@ -14,6 +14,7 @@ import z3
 from mlca_verify.logic.graph import Encoding, Move, Reach, explore, make_step, trace_steps
 from mlca_verify.logic.results import Counterexample, Kind, Outcome, Result, Step
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS, Solver, encode
+from mlca_verify.logic.tables import Tables, firing, later_elsewhere, tables_for
 from mlca_verify.model import Invariant, Liveness, Machine, Verdict
 
 
@@ -37,6 +38,9 @@ class Checker:
         self.enc = Encoding(machine, self.solver)
         self.reach = explore(self.enc)
         self.first_use: dict[str, Move] = {}
+        self.transitions = {t.id: t for t in machine.transitions}
+        self.position = {t.id: i for i, t in enumerate(machine.transitions)}
+        self.fire: dict[str, tuple[Tables | None, dict[str, int]]] = {}
         for move in self.reach.moves():
             self.first_use.setdefault(move.id, move)
 
@@ -84,14 +88,10 @@ class Checker:
     def determinism(self) -> Finding:
         if self.machine.semantics == "first-match":
             return Finding("holds", detail="first-match: the first enabled transition in file order fires")
-        pairs = (
-            (a, z3.And(a.cond, b.cond))
-            for state in self.reach.order
-            for i, a in enumerate(self.enc.moves[state])
-            for b in self.enc.moves[state][i + 1 :]
-            if a.target != b.target
-        )
-        hit = self.first_sat(pairs)
+        conflicts = ((a, z3.And(a.cond, other)) for state in self.reach.order for a, other in self.conflicts(state))
+        hit = self.first_sat(conflicts)
+        if isinstance(hit, tuple):
+            hit = self.first_pair(hit[0])
         if isinstance(hit, tuple):
             move, formula = hit
             inputs = self.solver.witness(formula)
@@ -101,6 +101,19 @@ class Checker:
             detail = f"in {move.source} {len(outs)} transitions are enabled at once"
             return Finding("violated", Counterexample((*self.prefix(move.source), step)), detail)
         return Finding(_verdict_if_clean(self.reach, hit is False))
+
+    def conflicts(self, state: str) -> list[tuple[Move, z3.BoolRef]]:
+        """Each transition of `state`, with the condition that a later one with another target is enabled."""
+        moves = [m for m in self.enc.moves[state] if m.transition is not None]
+        out = [m.transition for m in moves if m.transition is not None]
+        later = later_elsewhere(self.machine, state, out, self.enc.guards[state], self.solver.vars)
+        return list(zip(moves, later, strict=True))
+
+    def first_pair(self, a: Move) -> tuple[Move, z3.BoolRef] | bool | None:
+        """The first later transition that `a` can be enabled with, to another target."""
+        moves = self.enc.moves[a.source]
+        later = moves[next(i for i, m in enumerate(moves) if m is a) + 1 :]
+        return self.first_sat((a, z3.And(a.cond, b.cond)) for b in later if a.target != b.target)
 
     def completeness(self) -> Finding:
         if self.machine.otherwise == "stay":
@@ -134,24 +147,43 @@ class Checker:
 
     def why_dead(self, tid: str) -> str:
         """Explain a dead transition: unreachable sources, an unsatisfiable guard, or earlier transitions."""
+        transition = self.transitions[tid]
+        guard = self.enc.guard(transition)
         reasons = []
-        sources = next(t.sources for t in self.machine.transitions if t.id == tid)
-        for state in self.machine.states if sources is None else sources:
-            moves = self.enc.moves[state]
-            index = next((i for i, m in enumerate(moves) if m.id == tid), None)
-            if index is None:
-                continue
-            transition = moves[index].transition
-            assert transition is not None
-            guard = self.enc.guard(transition)
+        for state in self.machine.states if transition.sources is None else transition.sources:
             if state not in self.reach.dist:
                 reasons.append(f"{state} is unreachable")
             elif self.solver.check(guard) != "sat":
                 reasons.append(f"in {state} its guard is unsatisfiable")
             else:
-                earlier = [m.id for m in moves[:index] if self.solver.check(z3.And(guard, m.cond)) != "unsat"]
-                reasons.append(f"in {state} it is shadowed by {', '.join(earlier)}")
+                reasons.append(f"in {state} it is shadowed by {', '.join(self.shadowing(state, tid, guard))}")
         return "never fires: " + "; ".join(reasons)
+
+    def shadowing(self, state: str, tid: str, guard: z3.BoolRef) -> list[str]:
+        """The earlier transitions of `state` that fire on some input enabling `guard`. Only moves that fire at
+        all can (the reachable state's feasible moves), and over few inputs only those whose truth table meets
+        the guard's: z3 is asked about no other."""
+        tables, fire = self.fire_tables(state)
+        mine = None if tables is None else tables.table(self.transitions[tid].guard)
+        earlier = []
+        for move in self.reach.edges[state]:
+            if move.transition is None or self.position[move.transition.id] >= self.position[tid]:
+                break
+            if mine is not None and fire[move.id] & mine == 0:
+                continue
+            if self.solver.check(z3.And(guard, move.cond)) != "unsat":
+                earlier.append(move.id)
+        return earlier
+
+    def fire_tables(self, state: str) -> tuple[Tables | None, dict[str, int]]:
+        """Over few inputs: the truth table of the inputs under which each transition of `state` fires."""
+        if state not in self.fire:
+            out = [m.transition for m in self.enc.moves[state] if m.transition is not None]
+            guards = [t.guard for t in out]
+            tables = tables_for(self.machine, guards, self.solver.vars)
+            fire = [] if tables is None else firing(tables, guards)
+            self.fire[state] = (tables, {t.id: table for t, table in zip(out, fire, strict=False)})
+        return self.fire[state]
 
     # --- declared properties -------------------------------------------------------------------------
 

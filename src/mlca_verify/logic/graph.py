@@ -14,6 +14,7 @@ import z3
 
 from mlca_verify.logic.results import Outcome, Step
 from mlca_verify.logic.solver import Solver, encode
+from mlca_verify.logic.tables import none_before
 from mlca_verify.model import OTHERWISE_ID, Machine, Transition
 
 
@@ -43,6 +44,7 @@ class Encoding:
         self.solver = solver
         self.moves: dict[str, tuple[Move, ...]] = {}
         self.gaps: dict[str, z3.BoolRef] = {}
+        self.guards: dict[str, tuple[z3.BoolRef, ...]] = {}
         outgoing: dict[str, list[Transition]] = {s: [] for s in machine.states}
         for t in machine.transitions:
             for state in machine.states if t.sources is None else t.sources:
@@ -55,15 +57,17 @@ class Encoding:
 
     def _encode_state(self, state: str, out: list[Transition]) -> None:
         guards = [self.guard(t) for t in out]
+        before = none_before(self.machine, state, [t.guard for t in out], guards, self.solver.vars)
+        first_match = self.machine.semantics == "first-match"
         moves = []
         for index, (t, g) in enumerate(zip(out, guards, strict=True)):
-            cond = z3.And(g, *[z3.Not(e) for e in guards[:index]]) if self.machine.semantics == "first-match" else g
+            cond = z3.And(g, before[index]) if first_match and index else g
             moves.append(Move(state, t.target, cond, t))
-        none_enabled = z3.And(*[z3.Not(g) for g in guards]) if guards else z3.BoolVal(True)
+        self.guards[state] = tuple(guards)
         if self.machine.otherwise == "stay":
-            moves.append(Move(state, state, none_enabled, None))
+            moves.append(Move(state, state, before[-1], None))
         else:
-            self.gaps[state] = none_enabled
+            self.gaps[state] = before[-1]
         self.moves[state] = tuple(moves)
 
     def can_go(self, state: str, target: str) -> z3.BoolRef:
@@ -74,7 +78,15 @@ class Encoding:
     def outcomes(self, state: str, inputs: dict[str, bool], label: str | None = None) -> tuple[Outcome, ...]:
         """Every outcome of `state` under concrete inputs (empty: a gap)."""
         values = [(v, z3.BoolVal(inputs.get(n, False))) for n, v in self.solver.vars.items()]
-        fired = [m for m in self.moves.get(state, ()) if z3.is_true(z3.simplify(z3.substitute(m.cond, *values)))]
+        moves = self.moves.get(state, ())
+        fired = []
+        for move, guard in zip(moves, self.guards.get(state, ()), strict=False):
+            if z3.is_true(z3.simplify(z3.substitute(guard, *values))):
+                fired.append(move)
+                if self.machine.semantics == "first-match":
+                    break
+        if not fired and len(moves) > len(self.guards.get(state, ())):
+            fired.append(moves[-1])  # otherwise: stay
         return tuple(m.outcome(self.machine, label) for m in fired)
 
 
