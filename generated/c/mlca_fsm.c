@@ -28,6 +28,38 @@
 /*@ predicate mlca_inv_no_move_when_waiting(mlca_inputs_t in, mlca_state_t s) =
   @   ((((in.N && in.W) && (!in.L)) && (!in.R)) ==> ((s == MLCA_IDLE) || (s == MLCA_WAITING)));
   @*/
+/* mlca_<STATE>__none_<k>: in that state, none of the first k guards holds (first-match, in priority order);
+ * each is the one before it and one more guard, so the contract grows linearly with the transitions. */
+/*@ predicate mlca_IDLE__none_1(mlca_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_IDLE__none_2(mlca_inputs_t in) =
+  @   mlca_IDLE__none_1(in) && !(in.N && in.W);
+  @*/
+/*@ predicate mlca_IDLE__none_3(mlca_inputs_t in) =
+  @   mlca_IDLE__none_2(in) && !(in.N && in.L);
+  @*/
+/*@ predicate mlca_IDLE__none_4(mlca_inputs_t in) =
+  @   mlca_IDLE__none_3(in) && !(in.N && in.R);
+  @*/
+/*@ predicate mlca_WAITING__none_1(mlca_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_WAITING__none_2(mlca_inputs_t in) =
+  @   mlca_WAITING__none_1(in) && !(in.N && (in.L || in.R));
+  @*/
+/*@ predicate mlca_MOVING_LEFT__none_1(mlca_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_MOVING_LEFT__none_2(mlca_inputs_t in) =
+  @   mlca_MOVING_LEFT__none_1(in) && !(in.N && (!in.L));
+  @*/
+/*@ predicate mlca_MOVING_RIGHT__none_1(mlca_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_MOVING_RIGHT__none_2(mlca_inputs_t in) =
+  @   mlca_MOVING_RIGHT__none_1(in) && !(in.N && (!in.R));
+  @*/
 
 /*@ requires mlca_inputs_bool(in);
   @ assigns \nothing;
@@ -38,27 +70,21 @@
   @ behavior IDLE__2_idle_wait:
   @   assumes s == MLCA_IDLE;
   @   assumes (in.N && in.W);
-  @   assumes !(!in.N);
+  @   assumes mlca_IDLE__none_1(in);
   @   ensures \result == MLCA_WAITING;
   @ behavior IDLE__3_idle_left:
   @   assumes s == MLCA_IDLE;
   @   assumes (in.N && in.L);
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.W);
+  @   assumes mlca_IDLE__none_2(in);
   @   ensures \result == MLCA_MOVING_LEFT;
   @ behavior IDLE__4_idle_right:
   @   assumes s == MLCA_IDLE;
   @   assumes (in.N && in.R);
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.W);
-  @   assumes !(in.N && in.L);
+  @   assumes mlca_IDLE__none_3(in);
   @   ensures \result == MLCA_MOVING_RIGHT;
   @ behavior IDLE__otherwise:
   @   assumes s == MLCA_IDLE;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.W);
-  @   assumes !(in.N && in.L);
-  @   assumes !(in.N && in.R);
+  @   assumes mlca_IDLE__none_4(in);
   @   ensures \result == MLCA_IDLE;
   @ behavior WAITING__1_reset:
   @   assumes s == MLCA_WAITING;
@@ -67,12 +93,11 @@
   @ behavior WAITING__2_wait_exit:
   @   assumes s == MLCA_WAITING;
   @   assumes (in.N && (in.L || in.R));
-  @   assumes !(!in.N);
+  @   assumes mlca_WAITING__none_1(in);
   @   ensures \result == MLCA_IDLE;
   @ behavior WAITING__otherwise:
   @   assumes s == MLCA_WAITING;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && (in.L || in.R));
+  @   assumes mlca_WAITING__none_2(in);
   @   ensures \result == MLCA_WAITING;
   @ behavior MOVING_LEFT__1_reset:
   @   assumes s == MLCA_MOVING_LEFT;
@@ -81,12 +106,11 @@
   @ behavior MOVING_LEFT__2_left_abort:
   @   assumes s == MLCA_MOVING_LEFT;
   @   assumes (in.N && (!in.L));
-  @   assumes !(!in.N);
+  @   assumes mlca_MOVING_LEFT__none_1(in);
   @   ensures \result == MLCA_IDLE;
   @ behavior MOVING_LEFT__otherwise:
   @   assumes s == MLCA_MOVING_LEFT;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && (!in.L));
+  @   assumes mlca_MOVING_LEFT__none_2(in);
   @   ensures \result == MLCA_MOVING_LEFT;
   @ behavior MOVING_RIGHT__1_reset:
   @   assumes s == MLCA_MOVING_RIGHT;
@@ -95,12 +119,11 @@
   @ behavior MOVING_RIGHT__2_right_abort:
   @   assumes s == MLCA_MOVING_RIGHT;
   @   assumes (in.N && (!in.R));
-  @   assumes !(!in.N);
+  @   assumes mlca_MOVING_RIGHT__none_1(in);
   @   ensures \result == MLCA_IDLE;
   @ behavior MOVING_RIGHT__otherwise:
   @   assumes s == MLCA_MOVING_RIGHT;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && (!in.R));
+  @   assumes mlca_MOVING_RIGHT__none_2(in);
   @   ensures \result == MLCA_MOVING_RIGHT;
   @ behavior out_of_range:
   @   assumes !mlca_valid(s);

@@ -31,6 +31,41 @@
 /*@ predicate mlca_r_inv_no_move_without_gap(mlca_r_inputs_t in, mlca_r_state_t s) =
   @   (((in.N && (!in.L)) && (!in.R)) ==> ((s == MLCA_R_IDLE) || (s == MLCA_R_WAITING)));
   @*/
+/* mlca_r_<STATE>__none_<k>: in that state, none of the first k guards holds (first-match, in priority order);
+ * each is the one before it and one more guard, so the contract grows linearly with the transitions. */
+/*@ predicate mlca_r_IDLE__none_1(mlca_r_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_r_IDLE__none_2(mlca_r_inputs_t in) =
+  @   mlca_r_IDLE__none_1(in) && !(in.N && in.W);
+  @*/
+/*@ predicate mlca_r_IDLE__none_3(mlca_r_inputs_t in) =
+  @   mlca_r_IDLE__none_2(in) && !(in.N && in.L);
+  @*/
+/*@ predicate mlca_r_IDLE__none_4(mlca_r_inputs_t in) =
+  @   mlca_r_IDLE__none_3(in) && !(in.N && in.R);
+  @*/
+/*@ predicate mlca_r_WAITING__none_1(mlca_r_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_r_WAITING__none_2(mlca_r_inputs_t in) =
+  @   mlca_r_WAITING__none_1(in) && !(in.N && in.L);
+  @*/
+/*@ predicate mlca_r_WAITING__none_3(mlca_r_inputs_t in) =
+  @   mlca_r_WAITING__none_2(in) && !(in.N && in.R);
+  @*/
+/*@ predicate mlca_r_MOVING_LEFT__none_1(mlca_r_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_r_MOVING_LEFT__none_2(mlca_r_inputs_t in) =
+  @   mlca_r_MOVING_LEFT__none_1(in) && !(in.N && (!in.L));
+  @*/
+/*@ predicate mlca_r_MOVING_RIGHT__none_1(mlca_r_inputs_t in) =
+  @   !(!in.N);
+  @*/
+/*@ predicate mlca_r_MOVING_RIGHT__none_2(mlca_r_inputs_t in) =
+  @   mlca_r_MOVING_RIGHT__none_1(in) && !(in.N && (!in.R));
+  @*/
 
 /*@ requires mlca_r_inputs_bool(in);
   @ assigns \nothing;
@@ -41,27 +76,21 @@
   @ behavior IDLE__2_idle_wait:
   @   assumes s == MLCA_R_IDLE;
   @   assumes (in.N && in.W);
-  @   assumes !(!in.N);
+  @   assumes mlca_r_IDLE__none_1(in);
   @   ensures \result == MLCA_R_WAITING;
   @ behavior IDLE__3_idle_left:
   @   assumes s == MLCA_R_IDLE;
   @   assumes (in.N && in.L);
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.W);
+  @   assumes mlca_r_IDLE__none_2(in);
   @   ensures \result == MLCA_R_MOVING_LEFT;
   @ behavior IDLE__4_idle_right:
   @   assumes s == MLCA_R_IDLE;
   @   assumes (in.N && in.R);
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.W);
-  @   assumes !(in.N && in.L);
+  @   assumes mlca_r_IDLE__none_3(in);
   @   ensures \result == MLCA_R_MOVING_RIGHT;
   @ behavior IDLE__otherwise:
   @   assumes s == MLCA_R_IDLE;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.W);
-  @   assumes !(in.N && in.L);
-  @   assumes !(in.N && in.R);
+  @   assumes mlca_r_IDLE__none_4(in);
   @   ensures \result == MLCA_R_IDLE;
   @ behavior WAITING__1_reset:
   @   assumes s == MLCA_R_WAITING;
@@ -70,19 +99,16 @@
   @ behavior WAITING__2_wait_left:
   @   assumes s == MLCA_R_WAITING;
   @   assumes (in.N && in.L);
-  @   assumes !(!in.N);
+  @   assumes mlca_r_WAITING__none_1(in);
   @   ensures \result == MLCA_R_MOVING_LEFT;
   @ behavior WAITING__3_wait_right:
   @   assumes s == MLCA_R_WAITING;
   @   assumes (in.N && in.R);
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.L);
+  @   assumes mlca_r_WAITING__none_2(in);
   @   ensures \result == MLCA_R_MOVING_RIGHT;
   @ behavior WAITING__otherwise:
   @   assumes s == MLCA_R_WAITING;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && in.L);
-  @   assumes !(in.N && in.R);
+  @   assumes mlca_r_WAITING__none_3(in);
   @   ensures \result == MLCA_R_WAITING;
   @ behavior MOVING_LEFT__1_reset:
   @   assumes s == MLCA_R_MOVING_LEFT;
@@ -91,12 +117,11 @@
   @ behavior MOVING_LEFT__2_left_abort:
   @   assumes s == MLCA_R_MOVING_LEFT;
   @   assumes (in.N && (!in.L));
-  @   assumes !(!in.N);
+  @   assumes mlca_r_MOVING_LEFT__none_1(in);
   @   ensures \result == MLCA_R_IDLE;
   @ behavior MOVING_LEFT__otherwise:
   @   assumes s == MLCA_R_MOVING_LEFT;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && (!in.L));
+  @   assumes mlca_r_MOVING_LEFT__none_2(in);
   @   ensures \result == MLCA_R_MOVING_LEFT;
   @ behavior MOVING_RIGHT__1_reset:
   @   assumes s == MLCA_R_MOVING_RIGHT;
@@ -105,12 +130,11 @@
   @ behavior MOVING_RIGHT__2_right_abort:
   @   assumes s == MLCA_R_MOVING_RIGHT;
   @   assumes (in.N && (!in.R));
-  @   assumes !(!in.N);
+  @   assumes mlca_r_MOVING_RIGHT__none_1(in);
   @   ensures \result == MLCA_R_IDLE;
   @ behavior MOVING_RIGHT__otherwise:
   @   assumes s == MLCA_R_MOVING_RIGHT;
-  @   assumes !(!in.N);
-  @   assumes !(in.N && (!in.R));
+  @   assumes mlca_r_MOVING_RIGHT__none_2(in);
   @   ensures \result == MLCA_R_MOVING_RIGHT;
   @ behavior out_of_range:
   @   assumes !mlca_r_valid(s);
