@@ -5,27 +5,63 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import math
+import sqlite3
 import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TypeVar
 
-from mlca_verify.cli import EXIT_INTERRUPTED, Parser, write_json
+from mlca_verify import cli_base
+from mlca_verify.cli import write_json
+from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser
 from mlca_verify.errors import MlcaError, UsageError
 from sim_check import db
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.runner import MARKS_KM, RunResult, run_once
-from sim_check.scenario import load_scenario
-from sim_check.sweep import RaySweep, Sweep
+from sim_check.scenario import LIMITS, MAX_SEED, Scenario, load_scenario
+from sim_check.sweep import Job, RaySweep, Sweep
+
+T = TypeVar("T")
+MAX_RUNS = 100_000  # seeds per configuration in one sweep
+MAX_JOBS = 64
+MAX_AVS = int(LIMITS["avs"][1])
+
+
+def _whole(text: str, low: int, high: int) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be from {low} to {high}, got {text}")
+    return value
+
+
+def _bounded(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: a whole number from `low` to `high`."""
+    return lambda text: _whole(text, low, high)
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text}")
+    return value
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = Parser(prog="mlca-sim", description="Run the generated MLCA controllers closed loop in SUMO.")
+    parser.add_argument(cli_base.DEBUG_FLAG, action="store_true", help="print the traceback of an internal error")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     run = sub.add_parser("run", help="one run")
     run.add_argument("--controller", default="mlca-c", choices=CONTROLLERS)
-    run.add_argument("--avs", type=int, default=None, help="number of AVs (default: the scenario's)")
-    run.add_argument("--seed", type=int, default=0)
+    run.add_argument("--avs", type=_bounded(1, MAX_AVS), default=None, help="number of AVs (default: the scenario's)")
+    run.add_argument("--seed", type=_bounded(0, MAX_SEED), default=0, help=f"SUMO's seed, 0 to {MAX_SEED}")
     run.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's, sim_check/paper.toml)")
     run.add_argument("--db", type=Path, help="also store the run in this results database")
     run.add_argument("--json", type=Path, help="also write the run as JSON")
@@ -34,12 +70,15 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--matrix", choices=["paper"],
                        help=f"the paper's comparison: {', '.join(PAPER_MATRIX)}")  # fmt: skip
     sweep.add_argument("--avs", default="1,3", help="comma-separated AV counts (default 1,3)")
-    sweep.add_argument("--runs", type=int, default=100, help="seeds 0..RUNS-1 per configuration (default 100)")
-    sweep.add_argument("--jobs", type=int, default=2, help="worker processes (default 2)")
+    sweep.add_argument("--runs", type=_bounded(1, MAX_RUNS), default=100,
+                       help="seeds 0..RUNS-1 per configuration (default 100)")  # fmt: skip
+    sweep.add_argument("--jobs", type=_bounded(1, MAX_JOBS), default=2, help="worker processes (default 2)")
     sweep.add_argument("--db", type=Path, required=True, help="results database (SQLite)")
-    sweep.add_argument("--resume", action="store_true", help="skip the runs the database already holds")
+    sweep.add_argument("--resume", action="store_true",
+                       help="skip the runs the database already holds and those a running sweep holds")  # fmt: skip
+    sweep.add_argument("--retry-failed", action="store_true", help="with --resume: run the failed runs again")
     sweep.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's)")
-    sweep.add_argument("--timeout", type=float, default=600.0, help="seconds before a run is declared hung")
+    sweep.add_argument("--timeout", type=_seconds, default=600.0, help="seconds before a run is declared hung")
     sweep.add_argument("--ray", metavar="ADDRESS", help="run on the Ray cluster at ADDRESS (host:port) instead")
     report = sub.add_parser("report", help="figures and report.md beside the paper's values, from a results database")
     report.add_argument("--db", type=Path, required=True, help="results database (SQLite) written by sweep")
@@ -74,71 +113,118 @@ def cmd_run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     if args.avs is not None:
         scenario = scenario.with_avs(args.avs)
+    conn = db.connect(args.db) if args.db else None  # a database that cannot take the run is refused first
+    if conn and (args.controller, scenario.traffic.avs, args.seed) in db.done(conn):
+        raise UsageError(f"{args.db}: error: already holds this run ({args.controller}, {scenario.traffic.avs} "
+                         f"AVs, seed {args.seed}); give another --db")  # fmt: skip
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as work:
         result = run_once(scenario, args.controller, args.seed, Path(work))
     print(_table([result]))
     print(f"{result.sim_steps} steps, {result.vehicle_steps} vehicle-steps, {result.wall_s:.2f} s wall, "
           f"{result.collisions} collisions, {result.monitor_violations} monitor violations")  # fmt: skip
-    if args.db:
-        db.store(db.connect(args.db), result)
+    if conn and not db.store(conn, result):
+        print(f"{args.db}: another process stored this run meanwhile; not stored again", file=sys.stderr)
     if args.json:
         write_json(str(args.json), result.to_json())
     return 0 if result.status == "done" and not result.violations else 1
 
 
-def _csv(text: str, cast: type, what: str) -> list:  # type: ignore[type-arg]
+def _csv(text: str, cast: Callable[[str], T], what: str) -> list[T]:
+    """The distinct comma-separated values of `text`, in their order."""
     try:
-        return [cast(x.strip()) for x in text.split(",") if x.strip()]
+        return list(dict.fromkeys(cast(x.strip()) for x in text.split(",") if x.strip()))
     except ValueError:
         raise UsageError(f"error: bad {what}: {text!r}") from None
 
 
-def cmd_sweep(args: argparse.Namespace) -> int:
+def _wanted(args: argparse.Namespace) -> list[Job]:
     if args.matrix and args.controller:
         raise UsageError("error: give either --matrix or --controller, not both")
+    if args.retry_failed and not args.resume:
+        raise UsageError("error: --retry-failed goes with --resume")
     controllers = list(PAPER_MATRIX) if args.matrix else _csv(args.controller or "mlca-c", str, "--controller")
     unknown = [c for c in controllers if c not in CONTROLLERS]
     if unknown:
         raise UsageError(f"error: unknown controllers: {', '.join(unknown)} (known: {', '.join(CONTROLLERS)})")
     avs = _csv(args.avs, int, "--avs")
-    if not controllers or not avs or args.runs < 1 or args.jobs < 1:
-        raise UsageError("error: a sweep needs at least one controller, one AV count, --runs >= 1 and --jobs >= 1")
-    scenario = load_scenario(args.scenario)
-    wanted = list(itertools.product(controllers, avs, range(args.runs)))
-    have = db.done(db.connect(args.db))
-    if have & set(wanted) and not args.resume:
-        raise UsageError(
-            f"{args.db}: error: already holds {len(have & set(wanted))} of these runs; add --resume to continue"
-        )
-    todo = [job for job in wanted if job not in have]
-    where = f"the Ray cluster at {args.ray}" if args.ray else f"{args.jobs} workers"
-    print(f"{len(wanted)} runs wanted, {len(wanted) - len(todo)} already in {args.db}, {len(todo)} to run "
-          f"on {where}", flush=True)  # fmt: skip
-    counts = {"done": 0, "failed": 0, "violations": 0}
+    if not controllers or not avs:
+        raise UsageError("error: a sweep needs at least one controller and one AV count")
+    if not all(1 <= n <= MAX_AVS for n in avs):
+        raise UsageError(f"error: --avs: every AV count must be from 1 to {MAX_AVS}, got {args.avs!r}")
+    return list(itertools.product(controllers, avs, range(args.runs)))
 
-    def progress(r: RunResult) -> None:
-        counts["done" if r.status == "done" else "failed"] += 1
-        counts["violations"] += r.monitor_violations
-        n = counts["done"] + counts["failed"]
-        bar = "#" * (30 * n // max(len(todo), 1))
-        sys.stderr.write(f"\r[{bar:30}] {n}/{len(todo)} runs, {counts['failed']} failed, "
-                         f"{counts['violations']} monitor violations")  # fmt: skip
+
+def _planned(args: argparse.Namespace, wanted: list[Job], plan: db.Plan) -> str:
+    where = f"the Ray cluster at {args.ray}" if args.ray else f"{args.jobs} workers"
+    line = f"{len(wanted)} runs wanted, {plan.stored} already in {args.db}, {len(plan.todo)} to run on {where}"
+    if plan.retried:
+        line += f" ({plan.retried} failed ones again)"
+    if plan.held:
+        pids = ", ".join(map(str, sorted(plan.held)))
+        line += f"; {sum(plan.held.values())} left to the sweep running as pid {pids}"
+    return line
+
+
+class Progress:
+    """A sweep's progress bar (stderr) and counts."""
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+        self.counts = {"done": 0, "failed": 0, "violations": 0}
+
+    def __call__(self, r: RunResult) -> None:
+        self.counts["done" if r.status == "done" else "failed"] += 1
+        self.counts["violations"] += r.monitor_violations
+        n = self.counts["done"] + self.counts["failed"]
+        bar = "#" * (30 * n // max(self.total, 1))
+        sys.stderr.write(f"\r[{bar:30}] {n}/{self.total} runs, {self.counts['failed']} failed, "
+                         f"{self.counts['violations']} monitor violations")  # fmt: skip
         sys.stderr.flush()
 
+    def end(self) -> None:
+        """End the bar's line, if it was drawn."""
+        if self.counts["done"] + self.counts["failed"]:
+            sys.stderr.write("\n")
+
+    def summary(self) -> str:
+        c = self.counts
+        return f"{c['done']} runs done, {c['failed']} failed, {c['violations']} monitor violations"
+
+
+def _sweep(args: argparse.Namespace, scenario: Scenario, conn: sqlite3.Connection) -> Sweep:
     try:
         if args.ray:
-            RaySweep(scenario, args.db, args.ray, args.timeout).run(todo, progress)
-        else:
-            Sweep(scenario, args.db, args.jobs, args.timeout).run(todo, progress)
+            return RaySweep(scenario, conn, args.ray, args.timeout)
+        return Sweep(scenario, conn, args.jobs, args.timeout)
+    except BaseException:
+        db.release(conn)
+        raise
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    wanted = _wanted(args)
+    scenario = load_scenario(args.scenario)
+    conn = db.connect(args.db)
+    plan = db.lease(conn, wanted, resume=args.resume, retry_failed=args.retry_failed)
+    sweep = _sweep(args, scenario, conn)
+    print(_planned(args, wanted, plan), flush=True)
+    progress = Progress(len(plan.todo))
+    try:
+        sweep.run(plan.todo, progress)
     except KeyboardInterrupt:
-        stored = len(db.done(db.connect(args.db)) & set(wanted))
+        stored = len(db.done(conn) & set(wanted))
         print(f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
               "command with --resume to do the rest", file=sys.stderr)  # fmt: skip
         return EXIT_INTERRUPTED
-    sys.stderr.write("\n")
-    summary = f"{counts['done']} runs done, {counts['failed']} failed, {counts['violations']} monitor violations"
+    except MlcaError:  # the database failed: the error goes on a line of its own
+        progress.end()
+        raise
+    progress.end()
+    summary = progress.summary()
+    if sweep.skipped:
+        summary += f", {len(sweep.skipped)} stored by another process first (not stored again)"
     print(f"{summary}; results in {args.db}")
-    return 0 if counts["failed"] == 0 and counts["violations"] == 0 else 1
+    return 0 if progress.counts["failed"] == 0 and progress.counts["violations"] == 0 else 1
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -146,24 +232,18 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     if not args.db.is_file():
         raise UsageError(f"{args.db}: error: no such results database")
-    written = write_report(args.db, args.out)
+    written = write_report(db.readable(args.db), args.out)
     print(f"wrote {len(written)} files to {args.out}: {', '.join(p.name for p in written)}")
     return 0
 
 
+COMMANDS = {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report}
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    try:
-        args = _parser().parse_args(argv)
-        return {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report}[args.command](args)
-    except MlcaError as err:
-        print(str(err).splitlines()[0], file=sys.stderr)
-        return 2
+    """Run the CLI; return the exit code. Every failure prints one line on stderr (mlca_verify.cli_base)."""
+    return cli_base.run_guarded("mlca-sim", _parser(), COMMANDS, sys.argv[1:] if argv is None else argv)
 
 
 def entry() -> None:
-    try:
-        code = main()
-    except KeyboardInterrupt:  # a single run or a report: nothing half-written is left (mlca_verify.files)
-        print("\ninterrupted", file=sys.stderr)
-        code = EXIT_INTERRUPTED
-    sys.exit(code)
+    cli_base.entry(main)

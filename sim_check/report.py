@@ -19,6 +19,7 @@ from typing import Any
 
 from mlca_verify.files import write_atomic
 from sim_check.controllers import SETUPS
+from sim_check.db import uri
 from sim_check.paper_results import (
     CLAIMS,
     COLLISION_CITE,
@@ -87,7 +88,7 @@ class Data:
 
 
 def load(db: Path) -> Data:
-    conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+    conn = sqlite3.connect(uri(db, "ro"), uri=True)
     groups: dict[Key, Group] = defaultdict(Group)
     for controller, avs, status, violations in conn.execute(
         "SELECT controller, avs, status, monitor_violations FROM runs ORDER BY controller, avs, seed"

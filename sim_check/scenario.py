@@ -8,7 +8,9 @@ speed factor, so that runs with one and with three AVs share the same background
 
 from __future__ import annotations
 
+import math
 import random
+import re
 import subprocess
 import tomllib
 from dataclasses import dataclass, fields, replace
@@ -19,6 +21,9 @@ from mlca_verify.errors import Loc, SpecError, ToolError
 from mlca_verify.spec.locate import Locator
 
 PAPER = Path(__file__).with_name("paper.toml")
+MAX_SCENARIO_BYTES = 1_000_000
+MAX_SEED = 2**31 - 1  # SUMO's --seed is a 32-bit signed integer
+_TOML_AT = re.compile(r" \(at line (\d+), column (\d+)\)$")
 
 
 @dataclass(frozen=True)
@@ -44,6 +49,14 @@ class Traffic:
     target_lane: str = "middle"
 
 
+LIMITS: dict[str, tuple[float, float]] = {  # beyond these a value is a mistake, or a run no machine finishes
+    "lanes": (1, 10), "length_m": (1, 200_000), "highway_speed_kmh": (1, 300), "ramp_speed_kmh": (1, 300),
+    "ramp_length_m": (1, 10_000), "merge_length_m": (1, 10_000), "approach_m": (1, 10_000),
+    "cars": (1, 10_000), "avs": (1, 100), "depart_window_s": (0, 3600), "av_depart_s": (0, 3600),
+    "step_s": (0.001, 10),
+}  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Scenario:
     road: Road = Road()
@@ -61,47 +74,130 @@ class Scenario:
 def load_scenario(path: Path | None = None) -> Scenario:
     """Read a scenario file; every key is optional and defaults to the paper's value. Errors name file:line:col."""
     path = path or PAPER
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise SpecError(Loc(str(path), 1, 1), f"cannot read scenario: {err.strerror or err}") from None
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SpecError(Loc(str(path), 1, 1), f"invalid TOML: {err}") from None
+    text = _read(path)
+    doc = _parse(path, text)
     where = Locator(str(path), text)
     sections: dict[str, Any] = {"road": Road(), "traffic": Traffic()}
     for key, table in doc.items():
         if key not in sections:
             raise SpecError(where.loc((key,)), f"unknown section [{key}] (known: road, traffic)")
+        if not isinstance(table, dict):
+            raise SpecError(where.loc((key,)), f"'{key}' must be a table ([{key}]), got {_show(table)}")
         sections[key] = _section(sections[key], table, where, key)
-    road: Road = sections["road"]
-    if road.osm:
-        osm = (path.parent / road.osm).resolve()
-        if not osm.is_file():
-            raise SpecError(where.loc(("road", "osm")), f"OpenStreetMap file '{road.osm}' not found (looked for {osm})")
-        if not road.route.split():
-            raise SpecError(where.loc(("road", "osm")), "an OpenStreetMap road needs 'route', the edge ids to drive")
-        sections["road"] = replace(road, osm=str(osm))
-    return Scenario(**sections)
+    scenario = Scenario(**sections)
+    _check_lane(scenario, where)
+    return _with_osm(scenario, path, where)
+
+
+def _read(path: Path) -> str:
+    try:
+        size = path.stat().st_size
+        data = path.read_bytes() if size <= MAX_SCENARIO_BYTES else b""
+    except OSError as err:
+        raise SpecError(Loc(str(path), 1, 1), f"cannot read scenario: {err.strerror or err}") from None
+    if size > MAX_SCENARIO_BYTES:
+        raise SpecError(Loc(str(path), 1, 1), f"scenario file of {size} bytes (at most {MAX_SCENARIO_BYTES})")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line, col = data.count(b"\n", 0, err.start) + 1, err.start - data.rfind(b"\n", 0, err.start)
+        raise SpecError(Loc(str(path), line, col), f"not UTF-8: byte 0x{data[err.start]:02x}") from None
+
+
+def _parse(path: Path, text: str) -> dict[str, Any]:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        message, line, col = _toml_position(str(err), text)
+        raise SpecError(Loc(str(path), line, col), f"invalid TOML: {message}") from None
+    except (ValueError, RecursionError) as err:  # an integer of thousands of digits, arrays nested thousands deep
+        raise SpecError(Loc(str(path), 1, 1), f"invalid TOML: {str(err) or type(err).__name__}") from None
+
+
+def _toml_position(message: str, text: str) -> tuple[str, int, int]:
+    """tomllib's message without its position, and the position: line and column, or the end of the text."""
+    if found := _TOML_AT.search(message):
+        return message[: found.start()], int(found[1]), int(found[2])
+    lines = text.split("\n")
+    return message.removesuffix(" (at end of document)"), len(lines), len(lines[-1]) + 1
 
 
 def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> Any:
-    known = {f.name: f for f in fields(default)}
-    values = {}
+    known = {f.name: str(f.type) for f in fields(default)}
+    values: dict[str, Any] = {}
     for key, given in table.items():
-        value = given
         if key not in known:
             raise SpecError(where.loc((name, key)), f"unknown key '{key}' in [{name}] (known: {', '.join(known)})")
-        wanted = type(getattr(default, key))
-        if wanted is float and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, wanted) or isinstance(value, bool):
-            raise SpecError(where.loc((name, key)), f"'{key}' in [{name}] must be {wanted.__name__}, got {value!r}")
-        if isinstance(value, int | float) and value <= 0:
-            raise SpecError(where.loc((name, key)), f"'{key}' in [{name}] must be positive, got {value!r}")
-        values[key] = value
+        at, what = where.loc((name, key)), f"'{key}' in [{name}]"
+        if key == "target_lane":
+            values[key] = _lane_name(given, at, what)
+        elif known[key] == "str":
+            values[key] = _text(key, given, at, what)
+        else:
+            values[key] = _number(given, LIMITS[key], at, what, continuous=known[key] == "float",
+                                  as_float=isinstance(getattr(default, key), float))  # fmt: skip
     return replace(default, **values)
+
+
+def _number(
+    given: Any, limits: tuple[float, float], at: Loc, what: str, *, continuous: bool, as_float: bool
+) -> int | float:
+    """A count (int) or a continuous quantity (int or float), finite and within `limits`; a float where the
+    default is one (so that the files written for a scenario stay what they were)."""
+    if isinstance(given, bool) or not isinstance(given, int | float) or (not continuous and isinstance(given, float)):
+        raise SpecError(at, f"{what} must be {'a number' if continuous else 'a whole number'}, got {_show(given)}")
+    low, high = limits
+    if not math.isfinite(given):
+        raise SpecError(at, f"{what} must be a finite number, got {_show(given)}")
+    if given <= 0:
+        raise SpecError(at, f"{what} must be positive, got {_show(given)}")
+    if not low <= given <= high:
+        raise SpecError(at, f"{what} must be {f'at least {low:g}' if given < low else f'at most {high:g}'}, got "
+                            f"{_show(given)}")  # fmt: skip
+    return float(given) if as_float else given
+
+
+def _text(key: str, given: Any, at: Loc, what: str) -> str:
+    if not isinstance(given, str):
+        raise SpecError(at, f"{what} must be a string, got {_show(given)}")
+    if key == "route" and (bad := re.search(r"[<>&\"'\x00-\x1f]", given.replace("\t", " "))):
+        raise SpecError(at, f"{what}: edge ids cannot hold {bad[0]!r}")
+    return given
+
+
+def _lane_name(given: Any, at: Loc, what: str) -> str:
+    """`middle` or a lane index (an integer, or its digits as a string), checked against the lanes later."""
+    lane = given if isinstance(given, str) else str(given) if type(given) is int and 0 <= given < 100 else None
+    if lane is None or not re.fullmatch(r"middle|[0-9]{1,2}", lane):
+        raise SpecError(at, f'{what} must be "middle" or a lane index (0 = rightmost), got {_show(given)}')
+    return lane
+
+
+def _check_lane(scenario: Scenario, where: Locator) -> None:
+    lanes, lane = scenario.road.lanes, scenario.traffic.target_lane
+    if lane != "middle" and int(lane) >= lanes:
+        raise SpecError(where.loc(("traffic", "target_lane")), f"'target_lane' in [traffic] is lane {lane}, but "
+                        f"the road has {lanes} lanes (0 = rightmost to {lanes - 1})")  # fmt: skip
+
+
+def _with_osm(scenario: Scenario, path: Path, where: Locator) -> Scenario:
+    road = scenario.road
+    if not road.osm:
+        return scenario
+    osm = (path.parent / road.osm).resolve()
+    if not osm.is_file():
+        raise SpecError(where.loc(("road", "osm")), f"OpenStreetMap file '{road.osm}' not found (looked for {osm})")
+    if not road.route.split():
+        raise SpecError(where.loc(("road", "osm")), "an OpenStreetMap road needs 'route', the edge ids to drive")
+    return replace(scenario, road=replace(road, osm=str(osm)))
+
+
+def _show(value: Any) -> str:
+    """A value as an error shows it: at most 40 characters (an integer of thousands of digits included)."""
+    if isinstance(value, int) and abs(value) >= 10**40:
+        return "an integer of more than 40 digits"
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:37]}..."
 
 
 @dataclass(frozen=True)

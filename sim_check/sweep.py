@@ -1,15 +1,24 @@
 """Sweeps: many runs over worker processes, each with its own libsumo, results committed as each run ends.
 
 A worker that crashes (SUMO aborts the process) or hangs past the timeout is killed and replaced; its run is
-recorded as failed with the reason, and the sweep goes on."""
+recorded as failed with the reason, and the sweep goes on.
+
+Workers die with their sweep, even when it is killed with SIGKILL (on Linux the kernel sends them SIGKILL when it
+dies: PR_SET_PDEATHSIG). The sweep's temporary folder is named after its process (pid and start time); a sweep
+removes the folders of sweeps that are no longer running."""
 
 from __future__ import annotations
 
+import ctypes
 import logging
 import multiprocessing as mp
+import os
 import queue
+import re
+import shutil
 import signal
 import socket
+import sqlite3
 import sys
 import tempfile
 import threading
@@ -25,9 +34,23 @@ from sim_check.runner import RunResult, run_once
 from sim_check.scenario import Scenario
 
 Job = tuple[str, int, int]  # controller, AVs, seed
+WORK_PREFIX = "mlca-sim-work-"  # then the owner's pid and start time: mlca-sim-work-PID-STARTED-XXXXXXXX
+STALE = re.compile(re.escape(WORK_PREFIX) + r"(\d+)-(\d*)-")
+PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 
-def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any) -> None:
+def _die_with(parent: int) -> None:
+    """Have the kernel kill this process when `parent` (the sweep) dies, however it dies (Linux). The kernel
+    watches the thread that started the worker: a sweep starts its workers from the thread that runs it."""
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # the sweep died before the request was made
+        os._exit(1)
+
+
+def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any, parent: int) -> None:
+    _die_with(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle: it stops the workers
     tempfile.tempdir = str(work)  # the worker's own temporary files (the compiled controller) go with its folder
     while True:
@@ -51,10 +74,21 @@ class Slot:
     since: float = 0.0
 
 
+def work_folder() -> Path:
+    """A new temporary folder for a sweep, named after this process; first, those of dead sweeps go."""
+    me = db.Owner.me()
+    for stale in Path(tempfile.gettempdir()).glob(f"{WORK_PREFIX}*"):
+        match = STALE.match(stale.name)
+        if match and stale.is_dir() and not db.Owner(me.host, int(match[1]), match[2]).alive():
+            shutil.rmtree(stale, ignore_errors=True)
+    return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{me.pid}-{me.started}-"))
+
+
 class Sweep:
-    def __init__(self, scenario: Scenario, db_path: Path, jobs_n: int, timeout_s: float) -> None:
+    def __init__(self, scenario: Scenario, results: Path | sqlite3.Connection, jobs_n: int, timeout_s: float) -> None:
         self.scenario = scenario
-        self.conn = db.connect(db_path)
+        self.conn = results if isinstance(results, sqlite3.Connection) else db.connect(results)
+        self.skipped: list[Job] = []  # runs another writer stored first: not stored again
         self.jobs_n = jobs_n
         self.timeout_s = timeout_s
         self.ctx = mp.get_context("spawn")
@@ -66,7 +100,8 @@ class Sweep:
         assert self.work is not None
         jobs = self.ctx.Queue()
         work = Path(tempfile.mkdtemp(prefix="worker-", dir=self.work))
-        process = self.ctx.Process(target=_worker, args=(self.scenario, work, jobs, self.results), daemon=True)
+        args = (self.scenario, work, jobs, self.results, os.getpid())
+        process = self.ctx.Process(target=_worker, args=args, daemon=True)
         if threading.current_thread() is threading.main_thread():  # the worker starts with Ctrl-C ignored,
             previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # even while it is still importing
             try:
@@ -78,16 +113,18 @@ class Sweep:
         return Slot(process, jobs)
 
     def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
-        with tempfile.TemporaryDirectory(prefix="mlca-sim-work-") as work:
-            self.work = Path(work)
-            slots: list[Slot] = []
-            try:
-                return self._run(todo, progress, slots)
-            finally:  # interrupted or not, no worker outlives the sweep (finished ones have exited already)
-                for slot in slots:
-                    slot.process.kill()
-                    slot.process.join(timeout=10)
-                self.work = None
+        """Run `todo` and store each result as it comes; the leases of runs left undone are released."""
+        self.work = work_folder()
+        slots: list[Slot] = []
+        try:
+            return self._run(todo, progress, slots)
+        finally:  # interrupted or not, no worker outlives the sweep (finished ones have exited already)
+            for slot in slots:
+                slot.process.kill()
+                slot.process.join(timeout=10)
+            shutil.rmtree(self.work, ignore_errors=True)
+            self.work = None
+            db.release(self.conn)
 
     def _run(self, todo: list[Job], progress: Any, slots: list[Slot]) -> list[RunResult]:
         pending = list(todo)
@@ -136,7 +173,8 @@ class Sweep:
         if key in self.finished_keys:  # a late answer from a worker already given up on
             return
         self.finished_keys.add(key)
-        db.store(self.conn, result)
+        if not db.store(self.conn, result):
+            self.skipped.append(key)
         finished.append(result)
         progress(result)
 
@@ -152,8 +190,8 @@ class RaySweep(Sweep):
     is running from its submission on and the timeout measures the run. Results are stored by this process as
     each task ends, exactly as in a local sweep."""
 
-    def __init__(self, scenario: Scenario, db_path: Path, address: str, timeout_s: float) -> None:
-        super().__init__(scenario, db_path, 1, timeout_s)
+    def __init__(self, scenario: Scenario, results: Path | sqlite3.Connection, address: str, timeout_s: float) -> None:
+        super().__init__(scenario, results, 1, timeout_s)
         try:
             import ray
         except ImportError:
@@ -193,6 +231,7 @@ class RaySweep(Sweep):
                         self.finish(RunResult(*job, status="failed", reason=reason), finished, progress)
         finally:
             self.ray.shutdown()
+            db.release(self.conn)
         return finished
 
     def _result(self, ref: Any, job: Job) -> RunResult:
