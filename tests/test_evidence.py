@@ -40,7 +40,7 @@ def test_evidence_json_matches_its_schema(bundles: tuple[Path, Path]) -> None:
     wp = next(c for c in doc["conformance"] if c["name"] == "frama-c-wp")
     assert len(wp["data"]["goal_list"]) == wp["data"]["goals"] == wp["data"]["proved"]
     paths = {f["path"] for f in doc["inputs"]}
-    assert {"spec/mlca_r.toml", "spec/mlca.toml", "spec/paper/figure.toml", "codegen/c_fsm.c.j2"} <= paths
+    assert {"spec/mlca_r.toml", "spec/mlca.toml", "spec/paper/figure.toml", "templates/c_fsm.c.j2"} <= paths
     rows = {r["element"]: r for r in doc["traceability"]}
     wait_left = rows["transition wait_left"]
     assert wait_left["cite"].startswith("repair of Alg. 1, l.16-18") and wait_left["verdict"] == "holds"

@@ -40,13 +40,15 @@ def c_comment(text: str) -> str:
 
 
 def c_string(text: str) -> str:
-    """The body of a C string literal (without its quotes): octal escapes for bytes outside printable ASCII,
-    so that no escape can swallow the characters after it."""
+    """The body of a C string literal (without its quotes): \\n, \\r, \\t, and octal escapes for every other byte
+    outside printable ASCII, so that no escape can swallow the characters after it."""
     out = []
     for byte in text.encode("utf-8"):
         char = chr(byte)
         if char in '"\\?':
             out.append("\\" + char)
+        elif char in _NAMED:
+            out.append(_NAMED[char])
         elif 0x20 <= byte < 0x7F:
             out.append(char)
         else:

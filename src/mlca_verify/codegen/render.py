@@ -13,7 +13,7 @@ from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, show
 
-TEMPLATE_DIR = Path(__file__).resolve().parents[3] / "codegen"
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # shipped as package data
 TEMPLATES = {
     "python/{module}_fsm.py": "python_fsm.py.j2",
     "c/{module}_fsm.h": "c_fsm.h.j2",
@@ -59,13 +59,15 @@ def _py_state(expr: StateIn, negated: bool) -> str:
 
 
 def _c_like(expr: Expr, macro: str, ops: dict[str, str], state: str) -> str:
+    """C-like text; a state constant is `<macro>_<STATE>`, or `<macro>(<STATE>)` when `macro` ends in '('."""
+
     def go(e: Expr) -> str:
         if isinstance(e, Const):
             return ops["true"] if e.value else ops["false"]
         if isinstance(e, Var):
             return f"in.{e.name}"
         if isinstance(e, StateIn):
-            parts = [f"({state} == {macro}_{s})" for s in e.states]
+            parts = [f"({state} == {_constant(macro, s)})" for s in e.states]
             return parts[0] if len(parts) == 1 else "(" + " || ".join(parts) + ")"
         if isinstance(e, Not):
             return f"(!{go(e.arg)})"
@@ -78,6 +80,10 @@ def c_expr(expr: Expr, macro: str) -> str:
     """C99 over `in` (the inputs struct) and `s` (the state); `a -> b` becomes `(!a || b)`."""
     ops = {"and": "&&", "or": "||", "<->": "==", "true": "true", "false": "false"}
     return _c_like(_without_implies(expr), macro, ops, "s")
+
+
+def _constant(macro: str, state: str) -> str:
+    return f"{macro}{state})" if macro.endswith("(") else f"{macro}_{state}"
 
 
 def c_condition(expr: Expr, macro: str) -> str:
@@ -155,6 +161,8 @@ def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
         "pycomment": escape.py_comment,
         "pydoc": escape.py_docstring,
         "pystr": escape.py_string,
+        "pyrepr": repr,  # a Python literal of validated names and bools
+        "cstrlit": lambda text: f'"{escape.c_string(text)}"',
     }
     env.filters.update({name: _escaping(function) for name, function in {**code, **text}.items()})
     return env
@@ -172,3 +180,12 @@ def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
             where = f"{template_dir / name}:{getattr(err, 'lineno', None) or 1}"
             raise CodegenError(f"{where}: error: template failed: {err}") from None
     return files
+
+
+def render_template(name: str, **values: object) -> str:
+    """One shipped template rendered with `values` (spec text in them passes the environment's filters)."""
+    try:
+        return environment().get_template(name).render(**values)
+    except jinja2.TemplateError as err:
+        where = f"{TEMPLATE_DIR / name}:{getattr(err, 'lineno', None) or 1}"
+        raise CodegenError(f"{where}: error: template failed: {err}") from None

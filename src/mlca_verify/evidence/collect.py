@@ -132,7 +132,7 @@ def inputs(ev: Evidence) -> list[dict[str, str]]:
     specs += [Path(c.other.loc.file) for c in ev.spec.machine.comparisons]
     templates = [TEMPLATE_DIR / name for name in TEMPLATES.values()]
     return _files([p for p in specs if p.is_file()]) + [
-        {"path": f"codegen/{p.name}", "sha256": sha256(p)} for p in sorted(templates)
+        {"path": f"templates/{p.name}", "sha256": sha256(p)} for p in sorted(templates)
     ]
 
 
