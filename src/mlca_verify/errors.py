@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from mlca_verify.escape import terminal
+
+MESSAGE_LIMIT = 500  # characters of a message after its location
+
 
 @dataclass(frozen=True)
 class Loc:
@@ -25,7 +29,10 @@ class SpecError(MlcaError):
     """A spec file that cannot be loaded: bad TOML, bad shape, or bad meaning."""
 
     def __init__(self, loc: Loc, message: str) -> None:
-        super().__init__(f"{loc}: error: {message}")
+        message = terminal(message)  # spec text in a message: one line, no control character
+        if len(message) > MESSAGE_LIMIT:
+            message = message[: MESSAGE_LIMIT - 3] + "..."
+        super().__init__(f"{terminal(str(loc))}: error: {message}")
         self.loc = loc
         self.message = message
 

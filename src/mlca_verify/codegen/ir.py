@@ -73,13 +73,18 @@ class MachineIR:
     reachable: tuple[str, ...]
 
 
-def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, reachable: tuple[str, ...]) -> MachineIR:
-    """The IR of a first-match, gap-free machine; anything else is refused with a `CodegenError`."""
+def require_first_match(machine: Machine) -> None:
+    """Refuse a nondeterministic machine (before any work on it): code needs one next state."""
     if machine.semantics != "first-match":
         raise CodegenError(
             f"{machine.loc}: error: machine '{machine.name}' is nondeterministic (semantics = \"any-enabled\"); "
             "code is generated only for first-match machines"
         )
+
+
+def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, reachable: tuple[str, ...]) -> MachineIR:
+    """The IR of a first-match, gap-free machine; anything else is refused with a `CodegenError`."""
+    require_first_match(machine)
     cases = []
     solver = Solver(machine.input_names)
     for index, state in enumerate(machine.states):

@@ -56,6 +56,8 @@ def _read_bytes(path: Path) -> bytes:
     """The bytes of a regular file of at most `MAX_SPEC_BYTES` (a FIFO or a device is refused, not read)."""
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except ValueError:  # a NUL byte in the name
+        raise UsageError(f"{str(path)!r}: error: cannot read spec: the name holds a NUL byte") from None
     except OSError as err:
         raise UsageError(f"{path}: error: cannot read spec: {err.strerror or err}") from None
     with os.fdopen(fd, "rb") as file:
@@ -92,21 +94,23 @@ def load_spec(path: str | Path, compare: bool = True, confine: bool = True) -> L
     text, digest = _read(path)
 
     def load_other(name: str, loc: Loc) -> Machine:
+        if "\x00" in name:
+            raise SpecError(loc, f"compared spec {name[:80]!r} holds a NUL byte")
         try:
             return find_other(name, loc)
         except OSError as err:
-            raise SpecError(loc, f"compared spec '{name[:80]}' cannot be read: {err.strerror or err}") from None
+            raise SpecError(loc, f"compared spec {name[:80]!r} cannot be read: {err.strerror or err}") from None
 
     def find_other(name: str, loc: Loc) -> Machine:
         other = path.parent / name
         if confine and not _inside(other, [path.parent, Path.cwd()]):
             raise SpecError(
                 loc,
-                f"compared spec '{name[:80]}' lies outside the spec's folder and the working directory "
+                f"compared spec {name[:80]!r} lies outside the spec's folder and the working directory "
                 "(--allow-outside lifts this)",
             )
         if not other.is_file():
-            raise SpecError(loc, f"compared spec '{name[:80]}' not found (looked for {str(other)[:200]})")
+            raise SpecError(loc, f"compared spec {name[:80]!r} not found (looked for {str(other)[:200]})")
         return load_spec(other, compare=False).machine
 
     machine = load_text(text, str(path), load_other if compare else None)

@@ -21,7 +21,16 @@ from mlca_verify.model import (
 )
 from mlca_verify.spec.expr_parser import ParseError, parse_expr
 from mlca_verify.spec.locate import Locator, Path
-from mlca_verify.spec.names import IDENTIFIER, MACHINE_NAME_LIMIT, NAME_LIMIT, PROPERTY_ID, c_form, clash
+from mlca_verify.spec.names import (
+    IDENTIFIER,
+    MACHINE_NAME_LIMIT,
+    MAX_INPUTS,
+    MAX_STATES,
+    NAME_LIMIT,
+    PROPERTY_ID,
+    c_form,
+    clash,
+)
 
 BUILTIN_PROPERTIES = frozenset({"determinism", "completeness"})
 # Prefixes of the built-in checks' results (`fires:t1`, `reach:IDLE`, `equiv:OTHER`): ids that would be read as one.
@@ -63,7 +72,7 @@ class MeaningChecker:
             raise error(f"{what} {_quoted(name)} is not an identifier (a letter, then letters, digits or '_')")
         if len(name) > limit:
             raise error(f"{what} '{name[:20]}...' is {len(name)} characters long (at most {limit})")
-        if (found := clash(name, what.split(maxsplit=1)[0])) is not None:
+        if (found := clash(name, what.split(maxsplit=1)[0], self.doc["machine"]["name"])) is not None:
             raise error(f"{what} '{name}' {found}")
 
     def distinct(self, path: Path, names: Iterable[tuple[str, Loc]], what: str) -> None:
@@ -79,6 +88,10 @@ class MeaningChecker:
                 )
             seen[key] = name
 
+    def bounded(self, path: Path, count: int, limit: int, what: str) -> None:
+        if count > limit:
+            raise self.fail(path, f"{count} {what}: at most {limit} are supported")
+
     # --- machine -------------------------------------------------------------------------------------
 
     def build(self) -> Machine:
@@ -87,6 +100,7 @@ class MeaningChecker:
         self.states = tuple(m["states"])
         if not self.states:
             raise self.fail(("machine", "states"), "a machine needs at least one state")
+        self.bounded(("machine", "states"), len(self.states), MAX_STATES, "states")
         state_locs = [
             (s, self.where.element_loc(("machine", "states"), s, self.states[:k].count(s)))
             for k, s in enumerate(self.states)
@@ -96,7 +110,8 @@ class MeaningChecker:
         self.distinct(("machine", "states"), state_locs, "state")
         if m["initial"] not in self.states:
             raise self.fail(
-                ("machine", "initial"), f"initial state '{m['initial']}' is not a state ({', '.join(self.states)})"
+                ("machine", "initial"),
+                f"initial state {_quoted(m['initial'])} is not a state ({', '.join(self.states)})",
             )
         inputs = self.inputs()
         transitions = self.transitions()
@@ -131,6 +146,7 @@ class MeaningChecker:
         items = self.doc["inputs"]
         if not items:
             raise self.fail(("inputs",), "a machine needs at least one input")
+        self.bounded(("inputs",), len(items), MAX_INPUTS, "inputs")
         result = []
         for name, item in items.items():
             self.identifier(("inputs", name), name, "input name", self.where.key_loc(("inputs", name)))
@@ -195,7 +211,7 @@ class MeaningChecker:
 
     def state_ref(self, path: Path, name: str, what: str) -> str:
         if name not in self.states:
-            raise self.fail(path, f"unknown {what} '{name}' (states: {', '.join(self.states)})")
+            raise self.fail(path, f"unknown {what} {_quoted(name)} (states: {', '.join(self.states)})")
         return name
 
     def property_id(self, path: Path, pid: str, what: str) -> None:
@@ -268,6 +284,6 @@ class MeaningChecker:
             path: Path = ("expect", key)
             if key not in known:
                 hint = "determinism, completeness, reach:<state>, fires:<transition id>"
-                raise self.fail(path, f"unknown built-in check '{key}' in [expect] (one of {hint})")
+                raise self.fail(path, f"unknown built-in check {_quoted(key)} in [expect] (one of {hint})")
             table[key] = cast(Verdict, self.choice(path, value, VERDICTS))
         return table

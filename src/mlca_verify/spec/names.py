@@ -8,6 +8,9 @@ import re
 from enum import IntEnum
 
 NAME_LIMIT = 64  # characters in a state, input or property name
+MAX_STATES = 1_000  # the explicit engine and the generated switch grow with them
+MAX_INPUTS = 64
+MAX_ELEMENTS = 10_000  # transitions, invariants, liveness properties, comparisons: each kind
 MACHINE_NAME_LIMIT = 32  # the machine's name prefixes every generated C name and file name
 
 IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
@@ -56,7 +59,7 @@ def _language_clash(name: str) -> str | None:
     return None
 
 
-def clash(name: str, role: str) -> str | None:
+def clash(name: str, role: str, machine: str = "") -> str | None:
     """Why `name`, used as a `role` ("state", "input", "machine"), cannot be used ("is a Python keyword",
     "clashes with ..."); None when it is free."""
     if "__" in name:
@@ -69,6 +72,8 @@ def clash(name: str, role: str) -> str | None:
     if role in ("state", "input") and name in PYTHON_ATTRIBUTES:
         holder = "the generated State enum (an IntEnum)" if role == "state" else "the generated Inputs class"
         return f"clashes with an attribute of {holder}"
+    if role == "input" and machine and name in {f"{machine.upper()}_{suffix}" for suffix in GENERATED_STATE_SUFFIXES}:
+        return f"clashes with the macro {name} of the generated C header"
     if role == "state" and name in GENERATED_STATE_SUFFIXES:
         return f"clashes with the generated C name <MACHINE>_{name}"
     return None

@@ -9,6 +9,7 @@ from typing import Any
 
 from mlca_verify.errors import SpecError
 from mlca_verify.spec.locate import Locator, Path
+from mlca_verify.spec.names import MAX_ELEMENTS
 
 
 @dataclass(frozen=True)
@@ -133,6 +134,8 @@ class ShapeChecker:
     def array(self, name: str, value: object, fields: Mapping[str, Field]) -> None:
         if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
             raise self.fail((name,), f"'{name}' must be an array of tables ([[{name}]]), got {_type_name(value)}")
+        if len(value) > MAX_ELEMENTS:
+            raise self.fail((name,), f"{len(value)} [[{name}]] tables: at most {MAX_ELEMENTS} are supported")
         for index, item in enumerate(value):
             self.table((name, index), item, fields, f"[[{name}]] #{index + 1}")
 
