@@ -8,20 +8,20 @@ SUMO ships the lane-change models LC2013, SL2015 and DK2008, and nothing named L
 from __future__ import annotations
 
 import functools
-import importlib.util
 import operator
-import sysconfig
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from mlca_verify.codegen import machine_ir
-from mlca_verify.conform.targets import PyMachine, build_shared, load_python
-from mlca_verify.errors import ToolError, UsageError
+from mlca_verify.errors import UsageError
 from mlca_verify.spec import load_spec
+from mlca_verify.targets import HOLDS, STATE_BITS, Layout, PythonMachine, build_c, load_python
 
 ROOT = Path(__file__).resolve().parent.parent
+Kind = Literal["fsm", "sumo", "mobil", "without"]
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ class Setup:
     av_type: extra vType attributes of the AVs; options: extra SUMO options (they apply to every vehicle)."""
 
     name: str
-    kind: str
+    kind: Kind
     label: str
     stands_for: str
     av_type: str = ""
@@ -82,91 +82,6 @@ def setup_of(name: str) -> Setup:
     return SETUPS[name]
 
 
-HOLDS = 0x10000  # the bit of a packed answer that says every invariant holds in the state reached
-STATE_BITS = 0xFFFF  # the bits of a packed answer that are the state reached
-
-# The closed loop's one call into the generated C a step: a Python extension function taking the state and the
-# inputs in the order of the inputs struct's fields, which steps the generated machine, runs the generated monitor on
-# the state reached, and answers both as one int. Called through the interpreter's own C calling convention
-# (METH_FASTCALL): per call, ctypes' argument conversion and libffi cost several times the instructions, and the code
-# and data they touch between two SUMO steps evict part of SUMO's from the cache.
-ADVANCE_C = """#define PY_SSIZE_T_CLEAN
-#include <Python.h>
-#include "{module}_fsm.h"
-
-PyMODINIT_FUNC PyInit__{module}_sim(void);
-
-static PyObject *advance(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{{
-    {module}_inputs_t in;
-    {module}_state_t next;
-    long state;
-    (void)self;
-    if (nargs != {nargs}) {{
-        PyErr_SetString(PyExc_TypeError, "advance takes the state and {inputs} inputs");
-        return NULL;
-    }}
-    state = PyLong_AsLong(args[0]);
-    if (state == -1 && PyErr_Occurred()) {{
-        return NULL;
-    }}
-{unpack}
-    next = {module}_step(({module}_state_t)state, in);
-    return PyLong_FromLong((long)next | ({module}_invariants_hold(in, next) ? {holds} : 0));
-}}
-
-static PyMethodDef methods[] = {{
-    {{"advance", (PyCFunction)(void (*)(void))advance, METH_FASTCALL, "advance(state, *inputs) -> packed answer"}},
-    {{NULL, NULL, 0, NULL}}
-}};
-
-static struct PyModuleDef definition = {{
-    PyModuleDef_HEAD_INIT, "_{module}_sim", "The closed loop's step of {module}.", -1, methods, NULL, NULL, NULL, NULL
-}};
-
-PyMODINIT_FUNC PyInit__{module}_sim(void)
-{{
-    return PyModule_Create(&definition);
-}}
-"""
-
-
-def advance_c(module: str, names: tuple[str, ...]) -> str:
-    """The adapter's source for a machine whose inputs struct has the fields `names`, in order (argument k + 1 is
-    field k; any truthy value is true)."""
-    unpack = "\n".join(f"    in.{name} = PyObject_IsTrue(args[{k + 1}]) == 1;" for k, name in enumerate(names))
-    return ADVANCE_C.format(module=module, nargs=len(names) + 1, inputs=len(names), unpack=unpack, holds=hex(HOLDS))
-
-
-def python_headers() -> Path:
-    """The folder of this interpreter's Python.h, which the C controller's adapter is built against."""
-    folder = Path(sysconfig.get_paths()["include"])
-    if not (folder / "Python.h").is_file():
-        raise ToolError(
-            f"error: cannot build the C controller: no Python.h in {folder}; install this Python's development "
-            "headers (Debian: python3-dev), as scripts/setup.sh does"
-        )
-    return folder
-
-
-def import_extension(library: Path, name: str) -> object:
-    """Import the extension module `name` from the shared library `library`."""
-    spec = importlib.util.spec_from_file_location(name, library)
-    if spec is None or spec.loader is None:
-        raise ToolError(f"error: cannot load the C controller from {library}")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def python_advance(machine: PyMachine, names: tuple[str, ...], state: int, *values: bool) -> int:
-    """One step of the generated Python machine and its monitor on the state reached, answered as the C adapter
-    answers."""
-    inputs = dict(zip(names, values, strict=True))
-    new = machine.step(state, inputs)
-    return new | (0 if machine.invariants(new, inputs) else HOLDS)
-
-
 def input_values(names: tuple[str, ...]) -> Callable[[dict[str, bool]], tuple[bool, ...]]:
     """A function from an inputs dict to its values in the order of `names` (one C call where there are two or
     more)."""
@@ -187,7 +102,7 @@ class Controller:
     inputs: tuple[str, ...]
     initial: int
     packed: Callable[..., int]
-    py: PyMachine | None = None
+    py: PythonMachine | None = None
 
     def __post_init__(self) -> None:
         self.values = input_values(self.inputs)
@@ -200,7 +115,7 @@ class Controller:
     def failing(self, state: int, inputs: dict[str, bool]) -> list[str]:
         """The invariants failing in `state`, reached with `inputs`, where the monitor said one fails: by id from
         the Python machine; the C monitor says only that one does."""
-        return self.py.invariants(state, inputs) if self.py else ["invariants"]
+        return self.py.failing(state, self.values(inputs)) if self.py else ["invariants"]
 
 
 @functools.cache
@@ -211,19 +126,11 @@ def load_controller(name: str, generated: Path = ROOT / "generated") -> Controll
     machine, lang = name.rsplit("-", 1)
     spec = load_spec(ROOT / "spec" / f"{machine}.toml", compare=False)
     ir = machine_ir(spec, generated)
+    layout = Layout(generated, ir.module)
     initial, names = ir.states.index(ir.initial), tuple(i.name for i in ir.inputs)
     if lang == "py":
-        module = load_python(generated / "python" / f"{ir.module}_fsm.py", f"_sim_{ir.module}_fsm")
-        py = PyMachine(module)
-        return Controller(name, ir.states, names, initial, functools.partial(python_advance, py, names), py=py)
-    headers = python_headers()
+        py = load_python(layout, names, f"_sim_{ir.module}_fsm")
+        return Controller(name, ir.states, names, initial, py.advance, py=py)
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
-        adapter = Path(build) / f"{ir.module}_sim_advance.c"
-        adapter.write_text(advance_c(ir.module, names), encoding="utf-8")
-        library = Path(build) / f"_{ir.module}_sim.so"
-        c_dir = generated / "c"
-        ran = build_shared(c_dir / f"{ir.module}_fsm.c", library, ("-I", str(c_dir), "-I", str(headers), str(adapter)))
-        if ran.returncode != 0:
-            raise ToolError(f"error: cannot build the C controller: {ran.output.strip()}")
-        extension = import_extension(library, f"_{ir.module}_sim")
-        return Controller(name, ir.states, names, initial, extension.advance)  # type: ignore[attr-defined]
+        c = build_c(layout, ir, Path(build), f"_{ir.module}_sim")
+    return Controller(name, ir.states, names, initial, c.advance)

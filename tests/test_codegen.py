@@ -13,15 +13,13 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import drift, generate
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.spec import load_spec
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 GENERATED = ROOT / "generated"
 SHIPPED = ["spec/mlca.toml", "spec/mlca_r.toml"]
 
 
-@pytest.fixture(autouse=True)
-def _at_root(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)
+pytestmark = pytest.mark.usefixtures("at_root")
 
 
 def test_committed_files_are_the_golden_output(capsys: pytest.CaptureFixture[str]) -> None:
@@ -74,9 +72,9 @@ def test_c_calls_no_library_and_nothing_recursive(spec: str, tmp_path: Path) -> 
 
 
 def test_python_api(tmp_path: Path) -> None:
-    from mlca_verify.conform.targets import load_python
+    from mlca_verify.targets import Layout, load_python
 
-    mod = load_python(GENERATED / "python" / "mlca_fsm.py", "_test_mlca_fsm")
+    mod = load_python(Layout(GENERATED, "mlca"), ("N", "W", "L", "R"), "_test_mlca_fsm").module
     moving = mod.Inputs(N=True, W=False, L=True, R=False)
     assert mod.step(mod.State.IDLE, moving) is mod.State.MOVING_LEFT
     assert mod.step(99, moving) is mod.INITIAL

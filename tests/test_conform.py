@@ -15,23 +15,24 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import Outcome, Target, cppcheck, frama_c
+from mlca_verify.conform.checks import CheckOutcome, Target, cppcheck, frama_c
 from mlca_verify.logic import check_all
 from mlca_verify.model import Machine
 from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.targets import Layout
+from tests.conftest import ROOT
 from tests.strategies import machines
 
-ROOT = Path(__file__).parent.parent
 FIXTURES = Path(__file__).parent / "fixtures"
 
 
-def quiet(_: Outcome) -> None:
+def quiet(_: CheckOutcome) -> None:
     pass
 
 
 @pytest.mark.slow
-def test_shipped_specs_pass_every_check(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)
+@pytest.mark.usefixtures("at_root")
+def test_shipped_specs_pass_every_check(tmp_path: Path) -> None:
     out = tmp_path / "conform.json"
     assert main(["conform", "spec/mlca.toml", "spec/mlca_r.toml", "--json", str(out), "--sequences", "100"]) == 0
     doc = json.loads(out.read_text())
@@ -56,8 +57,14 @@ def test_shipped_specs_pass_every_check(tmp_path: Path, monkeypatch: pytest.Monk
 
 
 def _target(c_file: Path, build: Path) -> Target:
+    """A target whose C source is `c_file` (with the header beside it, or the generated one)."""
     spec = load_spec(ROOT / "spec/mlca.toml", compare=False)
-    return Target(spec, machine_ir(spec, ROOT / "generated"), c_file, c_file, build)
+    layout = Layout(build / "generated", "mlca")
+    layout.c_source.parent.mkdir(parents=True)
+    shutil.copy(c_file, layout.c_source)
+    header = c_file.with_name("mlca_fsm.h")
+    shutil.copy(header if header.is_file() else ROOT / "generated" / "c" / "mlca_fsm.h", layout.c_header)
+    return Target(spec, machine_ir(spec, ROOT / "generated"), layout, build)
 
 
 @pytest.mark.slow
@@ -74,7 +81,7 @@ def test_cppcheck_runs_its_misra_addon(tmp_path: Path) -> None:
     assert any("misra-c2012-15.1" in f for f in outcome.data["findings"]), outcome.data["findings"]
 
 
-def _conform_with_templates(templates: Path, tmp_path: Path, checks: list[str]) -> dict[str, Outcome]:
+def _conform_with_templates(templates: Path, tmp_path: Path, checks: list[str]) -> dict[str, CheckOutcome]:
     spec = load_spec(ROOT / "spec/mlca.toml", compare=False)
     out = tmp_path / "generated"
     write(generate(spec, out, templates), out)

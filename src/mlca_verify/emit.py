@@ -18,6 +18,7 @@ from mlca_verify.files import write_atomic
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Expr, Liveness, Machine, show
 from mlca_verify.spec import LoadedSpec
+from mlca_verify.targets import Layout
 
 LOOP_REPEATS = 3  # a lasso's loop is replayed this many times
 
@@ -61,7 +62,7 @@ def _liveness_replay(live: Liveness, cx: Counterexample, inputs: list[dict[str, 
 
 
 def _module_path(spec: LoadedSpec, generated: Path, out: Path) -> str:
-    target = generated / "python" / f"{spec.machine.name.lower()}_fsm.py"
+    target = Layout(generated, spec.machine.name.lower()).python
     return Path(os.path.relpath(target.resolve(), out.resolve())).as_posix()
 
 

@@ -12,13 +12,10 @@ from mlca_verify import escape
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, show
+from mlca_verify.targets import Layout
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # shipped as package data
-TEMPLATES = {
-    "python/{module}_fsm.py": "python_fsm.py.j2",
-    "c/{module}_fsm.h": "c_fsm.h.j2",
-    "c/{module}_fsm.c": "c_fsm.c.j2",
-}
+TEMPLATES = {"python": "python_fsm.py.j2", "c-header": "c_fsm.h.j2", "c-source": "c_fsm.c.j2"}  # kinds of targets.FILES
 
 
 _PY_PREC = {"or": 3, "and": 4, "not": 5, "cmp": 6, "atom": 9}
@@ -172,10 +169,11 @@ def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
     """Every generated file of one machine: relative path -> text."""
     env = environment(template_dir)
     files = {}
-    for pattern, name in TEMPLATES.items():
+    layout = Layout(Path(), ir.module)
+    for kind, name in TEMPLATES.items():
         try:
             template = env.get_template(name)
-            files[pattern.format(module=ir.module)] = template.render(m=ir)
+            files[layout.relative(kind)] = template.render(m=ir)
         except jinja2.TemplateError as err:
             where = f"{template_dir / name}:{getattr(err, 'lineno', None) or 1}"
             raise CodegenError(f"{where}: error: template failed: {err}") from None

@@ -9,9 +9,10 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.codegen import drift, generate, machine_ir
-from mlca_verify.conform.checks import CHECKS, Outcome, Target, run_checks
+from mlca_verify.conform.checks import CHECKS, CheckOutcome, Target, run_checks
 from mlca_verify.errors import UsageError
 from mlca_verify.spec import LoadedSpec
+from mlca_verify.targets import Layout
 
 __all__ = ["CHECKS", "Conformance", "conform"]
 
@@ -19,7 +20,7 @@ __all__ = ["CHECKS", "Conformance", "conform"]
 @dataclass
 class Conformance:
     spec: LoadedSpec
-    outcomes: list[Outcome]
+    outcomes: list[CheckOutcome]
 
     @property
     def ok(self) -> bool:
@@ -35,36 +36,34 @@ class Conformance:
         }
 
 
-def _up_to_date(spec: LoadedSpec, generated: Path, template_dir: Path | None) -> Outcome:
+def _up_to_date(spec: LoadedSpec, generated: Path, template_dir: Path | None) -> CheckOutcome:
     files = generate(spec, generated) if template_dir is None else generate(spec, generated, template_dir)
     problems = [d for d in drift(files, generated) if d.path in files]
     if problems:
         listed = "; ".join(f"{d.path} {d.problem}" for d in problems)
-        return Outcome("up-to-date", False, f"{listed}: run `mlca-verify gen {spec.path}`")
-    return Outcome("up-to-date", True, f"{', '.join(sorted(files))} match the spec (sha256 {spec.sha256[:12]}...)")
+        return CheckOutcome("up-to-date", False, f"{listed}: run `mlca-verify gen {spec.path}`")
+    return CheckOutcome("up-to-date", True, f"{', '.join(sorted(files))} match the spec (sha256 {spec.sha256[:12]}...)")
 
 
 def conform(
     spec: LoadedSpec,
     generated: Path,
     checks: list[str],
-    report: Callable[[Outcome], None],
+    report: Callable[[CheckOutcome], None],
     *,
     sequences: int = 200,
     template_dir: Path | None = None,
 ) -> Conformance:
     """Run `checks` on the code for `spec` found in `generated`; `report` sees each outcome as it lands."""
     ir = machine_ir(spec, generated)
-    py_file = generated / "python" / f"{ir.module}_fsm.py"
-    c_file = generated / "c" / f"{ir.module}_fsm.c"
-    for path in (py_file, c_file):
-        if not path.is_file():
-            raise UsageError(
-                f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
-            )
+    layout = Layout(generated.resolve(), ir.module)
+    for path in layout.missing():
+        raise UsageError(
+            f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
+        )
     fresh = _up_to_date(spec, generated, template_dir)
     report(fresh)
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
-        target = Target(spec, ir, py_file.resolve(), c_file.resolve(), Path(build), sequences)
+        target = Target(spec, ir, layout, Path(build), sequences)
         outcomes = run_checks(target, checks, report)
     return Conformance(spec, [fresh, *outcomes])

@@ -7,6 +7,7 @@ cross build, (g) the exhaustive comparison again under AddressSanitizer and Unde
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shutil
@@ -22,17 +23,17 @@ from hypothesis import strategies as st
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.codegen.render import environment
 from mlca_verify.conform.reference import Reference
-from mlca_verify.conform.targets import CMachine, PyMachine, build_shared, load_python, valuations
-from mlca_verify.conform.tools import C_FLAGS, run
 from mlca_verify.errors import ToolError
 from mlca_verify.spec import LoadedSpec
+from mlca_verify.targets import CMachine, Layout, PythonMachine, build_c, load_python
+from mlca_verify.tools import C_FLAGS, run
 
 OUT_OF_RANGE = 3  # values past the last state tried as out-of-range states
 SEQUENCE_SEED = 20261125  # fixed: the same sequences on every run and every machine
 
 
 @dataclass
-class Outcome:
+class CheckOutcome:
     name: str
     ok: bool
     detail: str
@@ -55,11 +56,10 @@ class Target:
 
     spec: LoadedSpec
     ir: MachineIR
-    py_file: Path
-    c_file: Path
+    layout: Layout  # absolute paths
     build: Path
     sequences: int = 200
-    py: PyMachine | None = None
+    py: PythonMachine | None = None
     c: CMachine | None = None
     reference: Reference | None = None
 
@@ -71,19 +71,27 @@ class Target:
     def state_name(self, value: int) -> str | None:
         return self.ir.states[value] if 0 <= value < len(self.ir.states) else None
 
+    @property
+    def c_file(self) -> Path:
+        return self.layout.c_source
 
-Check = Callable[[Target], Outcome]
+
+def valuations(names: tuple[str, ...]) -> list[dict[str, bool]]:
+    return [dict(zip(names, bits, strict=True)) for bits in itertools.product([False, True], repeat=len(names))]
 
 
-def compile_and_load(t: Target) -> Outcome:
-    library = t.build / f"lib{t.ir.module}_fsm.so"
-    ran = build_shared(t.c_file, library)
+Check = Callable[[Target], CheckOutcome]
+
+
+def compile_and_load(t: Target) -> CheckOutcome:
+    obj = t.build / f"{t.ir.module}_fsm.o"
+    ran = run(["gcc", *C_FLAGS, "-O2", "-c", "-o", str(obj), str(t.c_file)], timeout=120)
     if ran.returncode != 0:
-        return Outcome("compile", False, f"gcc {' '.join(C_FLAGS)} failed:\n{ran.output.strip()}")
-    t.c = CMachine(library, t.ir)
-    t.py = PyMachine(load_python(t.py_file, f"_conform_{t.ir.module}_fsm"))
+        return CheckOutcome("compile", False, f"gcc {' '.join(C_FLAGS)} failed:\n{ran.output.strip()}")
+    t.c = build_c(t.layout, t.ir, t.build, f"_conform_{t.ir.module}_c")
+    t.py = load_python(t.layout, t.spec.machine.input_names, f"_conform_{t.ir.module}_fsm")
     warnings = ran.output.strip()
-    return Outcome("compile", True, f"gcc {' '.join(C_FLAGS)}: no diagnostics{warnings and ': ' + warnings}")
+    return CheckOutcome("compile", True, f"gcc {' '.join(C_FLAGS)}: no diagnostics{warnings and ': ' + warnings}")
 
 
 def _expected(t: Target) -> dict[tuple[int, tuple[bool, ...]], tuple[int, bool, list[str]]]:
@@ -99,39 +107,34 @@ def _expected(t: Target) -> dict[tuple[int, tuple[bool, ...]], tuple[int, bool, 
     return table
 
 
-def exhaustive(t: Target) -> Outcome:
+def exhaustive(t: Target) -> CheckOutcome:
     if t.py is None or t.c is None:
-        return Outcome("exhaustive", False, "not run: the code did not compile")
+        return CheckOutcome("exhaustive", False, "not run: the code did not compile")
     names = t.spec.machine.input_names
     mismatches = []
     table = _expected(t)
     for (value, bits), (nxt, hold, failing) in table.items():
         inputs = dict(zip(names, bits, strict=True))
-        got = (
-            t.py.step(value, inputs),
-            t.c.step(value, inputs),
-            t.py.invariants(value, inputs),
-            t.c.invariants_hold(value, inputs),
-        )
+        got = (t.py.step(value, bits), t.c.step(value, bits), t.py.failing(value, bits), t.c.holds(value, bits))
         if got != (nxt, nxt, failing, hold):
             mismatches.append(
                 f"state {value}, inputs {inputs}: z3 {nxt} {failing}, Python {got[0]} {got[2]}, C {got[1]} {got[3]}"
             )
     cases = len(table)
     if mismatches:
-        return Outcome(
+        return CheckOutcome(
             "exhaustive",
             False,
             f"{len(mismatches)} of {cases} cases differ; first: {mismatches[0]}",
             data={"cases": cases},
         )
     detail = f"Python, C and z3 agree on all {cases} (state, inputs) cases, {OUT_OF_RANGE} out-of-range states included"
-    return Outcome("exhaustive", True, detail, data={"cases": cases})
+    return CheckOutcome("exhaustive", True, detail, data={"cases": cases})
 
 
-def sequences(t: Target) -> Outcome:
+def sequences(t: Target) -> CheckOutcome:
     if t.py is None or t.c is None:
-        return Outcome("sequences", False, "not run: the code did not compile")
+        return CheckOutcome("sequences", False, "not run: the code did not compile")
     py, c = t.py, t.c
     names = t.spec.machine.input_names
     proved = {i.id for i in t.ir.invariants if i.proved}
@@ -148,20 +151,19 @@ def sequences(t: Target) -> Outcome:
     def run_sequence(seq: list[tuple[bool, ...]]) -> None:
         sp = sc = t.ir.states.index(t.ir.initial)
         for bits in seq:
-            inputs = dict(zip(names, bits, strict=True))
-            sp, sc = py.step(sp, inputs), c.step(sc, inputs)
+            sp, sc = py.step(sp, bits), c.step(sc, bits)
             assert sp == sc, f"Python went to {sp}, C to {sc}"
-            failing = py.invariants(sp, inputs)
-            assert (not failing) == c.invariants_hold(sc, inputs), f"monitors disagree: Python {failing}"
+            failing = py.failing(sp, bits)
+            assert (not failing) == c.holds(sc, bits), f"monitors disagree: Python {failing}"
             assert not proved & set(failing), f"monitor fired: {sorted(proved & set(failing))}"
             steps["count"] += 1
 
     try:
         run_sequence()
     except AssertionError as err:
-        return Outcome("sequences", False, f"a random input sequence broke it: {str(err).splitlines()[0]}")
+        return CheckOutcome("sequences", False, f"a random input sequence broke it: {str(err).splitlines()[0]}")
     detail = f"{t.sequences} random sequences ({steps['count']} steps) through Python and C: same states, monitor quiet"
-    return Outcome("sequences", True, detail, data={"sequences": t.sequences, "steps": steps["count"]})
+    return CheckOutcome("sequences", True, detail, data={"sequences": t.sequences, "steps": steps["count"]})
 
 
 _WP_SUMMARY = re.compile(r"Proved goals:\s+(\d+)\s*/\s*(\d+)")
@@ -169,7 +171,7 @@ _WP_BAD = re.compile(r"\[wp\] \[[^\]]+\] Goal (\S+) : (Timeout|Unknown|Failed|St
 _WP_GOAL = re.compile(r"^\[wp\] \[([^\]]+)\] Goal (\S+) : (\w+)", re.MULTILINE)
 
 
-def frama_c(t: Target) -> Outcome:
+def frama_c(t: Target) -> CheckOutcome:
     ran = run(
         ["frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-timeout", "10", "-wp-par", "2", str(t.c_file)],
         timeout=900,
@@ -180,24 +182,26 @@ def frama_c(t: Target) -> Outcome:
         tail = "\n".join(ran.output.strip().splitlines()[-5:])
         if "prover" in ran.output.lower():
             raise ToolError(f"error: Frama-C WP found no prover; run `why3 config detect` ({tail})")
-        return Outcome("frama-c-wp", False, f"Frama-C did not report a proof:\n{tail}")
+        return CheckOutcome("frama-c-wp", False, f"Frama-C did not report a proof:\n{tail}")
     proved, total = int(summary.group(1)), int(summary.group(2))
     unproved = [f"{g} ({why})" for g, why in _WP_BAD.findall(ran.output)]
     listed = sorted({(goal, prover, status) for prover, goal, status in _WP_GOAL.findall(ran.output)})
     goal_list = [{"goal": g, "prover": p, "status": s} for g, p, s in listed]
     data = {"proved": proved, "goals": total, "unproved": unproved, "goal_list": goal_list}
     if proved != total or ran.returncode != 0:
-        return Outcome(
+        return CheckOutcome(
             "frama-c-wp", False, f"{proved} / {total} goals proved; not proved: {', '.join(unproved) or '?'}", data=data
         )
-    return Outcome("frama-c-wp", True, f"frama-c -wp -wp-prover z3 -wp-rte: {proved} / {total} goals proved", data=data)
+    return CheckOutcome(
+        "frama-c-wp", True, f"frama-c -wp -wp-prover z3 -wp-rte: {proved} / {total} goals proved", data=data
+    )
 
 
 CPPCHECK = ("cppcheck", "--std=c99", "--enable=all", "--inconclusive", "--error-exitcode=1", "--quiet",
             "--suppress=missingIncludeSystem", "--suppress=unusedFunction", "--addon=misra")  # fmt: skip
 
 
-def cppcheck(t: Target) -> Outcome:
+def cppcheck(t: Target) -> CheckOutcome:
     # cppcheck's addons write dump files beside the source: check a private copy, so that runs in parallel on
     # the same generated file cannot trip over each other and nothing is written into generated/
     private = t.build / "cppcheck"
@@ -208,19 +212,19 @@ def cppcheck(t: Target) -> Outcome:
     findings = [line for line in ran.output.splitlines() if re.search(r":\d+:\d+: ", line)]
     if ran.returncode != 0 or findings:
         first = findings[0] if findings else ran.output.strip()
-        return Outcome("cppcheck", False, f"{len(findings)} findings; first: {first}", data={"findings": findings})
+        return CheckOutcome("cppcheck", False, f"{len(findings)} findings; first: {first}", data={"findings": findings})
     detail = "cppcheck --enable=all --inconclusive --addon=misra: no findings (unusedFunction suppressed: a library)"
-    return Outcome("cppcheck", True, detail, data={"findings": []})
+    return CheckOutcome("cppcheck", True, detail, data={"findings": []})
 
 
 ARM_FLAGS = ("-mcpu=cortex-m4", "-mthumb", "-Os")
 
 
-def cross_build(t: Target) -> Outcome:
+def cross_build(t: Target) -> CheckOutcome:
     obj = t.build / f"{t.ir.module}_fsm.arm.o"
     ran = run(["arm-none-eabi-gcc", *C_FLAGS, *ARM_FLAGS, "-c", "-o", str(obj), str(t.c_file)], timeout=120)
     if ran.returncode != 0:
-        return Outcome("cortex-m4", False, f"arm-none-eabi-gcc failed:\n{ran.output.strip()}")
+        return CheckOutcome("cortex-m4", False, f"arm-none-eabi-gcc failed:\n{ran.output.strip()}")
     size = run(["arm-none-eabi-size", str(obj)]).output.splitlines()[-1].split()
     text, data, bss = (int(x) for x in size[:3])
     symbols = run(["arm-none-eabi-nm", "-S", str(obj)]).output
@@ -228,10 +232,10 @@ def cross_build(t: Target) -> Outcome:
     step_bytes = int(step.group(1), 16) if step else -1
     info = {"text": text, "data": data, "bss": bss, "step_text": step_bytes}
     detail = f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}: text {text} B (step {step_bytes} B), data {data} B, bss {bss} B"
-    return Outcome("cortex-m4", data == 0 and bss == 0, detail, data=info)
+    return CheckOutcome("cortex-m4", data == 0 and bss == 0, detail, data=info)
 
 
-def sanitizers(t: Target) -> Outcome:
+def sanitizers(t: Target) -> CheckOutcome:
     harness = t.build / f"{t.ir.module}_harness.c"
     harness.write_text(
         environment().get_template("c_harness.c.j2").render(m=t.ir, extra=OUT_OF_RANGE), encoding="utf-8"
@@ -242,11 +246,11 @@ def sanitizers(t: Target) -> Outcome:
         ["gcc", *C_FLAGS, *flags, f"-I{t.c_file.parent}", "-o", str(exe), str(harness), str(t.c_file)], timeout=120
     )
     if ran.returncode != 0:
-        return Outcome("sanitizers", False, f"build failed:\n{ran.output.strip()}")
+        return CheckOutcome("sanitizers", False, f"build failed:\n{ran.output.strip()}")
     env = dict(os.environ, ASAN_OPTIONS="detect_leaks=1:abort_on_error=0", UBSAN_OPTIONS="print_stacktrace=1")
     done = run([str(exe)], timeout=120, env=env)
     if done.returncode != 0:
-        return Outcome("sanitizers", False, f"the harness failed under ASan/UBSan:\n{done.output.strip()[-2000:]}")
+        return CheckOutcome("sanitizers", False, f"the harness failed under ASan/UBSan:\n{done.output.strip()[-2000:]}")
     table = _expected(t)
     got = {}
     for line in done.output.splitlines():
@@ -256,13 +260,13 @@ def sanitizers(t: Target) -> Outcome:
     want = {k: (v[0], v[1]) for k, v in table.items()}
     if got != want:
         bad = sorted(k for k in want if got.get(k) != want[k])
-        return Outcome(
+        return CheckOutcome(
             "sanitizers", False, f"{len(bad)} of {len(want)} cases differ under sanitizers; first: {bad[:1]}"
         )
     caught = _invalid_bool_caught(exe, env, t.ir.step_reads_inputs)
     if caught is not None:
-        return Outcome("sanitizers", False, caught)
-    return Outcome(
+        return CheckOutcome("sanitizers", False, caught)
+    return CheckOutcome(
         "sanitizers",
         True,
         f"-fsanitize=address,undefined: all {len(want)} cases agree, no reports; inputs outside 0/1 reported",
@@ -294,7 +298,7 @@ CHECKS: dict[str, Check] = {
 NEED_LOADED_CODE = frozenset({"exhaustive", "sequences"})  # they call the code that "compile" builds and loads
 
 
-def run_checks(t: Target, names: list[str], report: Callable[[Outcome], None]) -> list[Outcome]:
+def run_checks(t: Target, names: list[str], report: Callable[[CheckOutcome], None]) -> list[CheckOutcome]:
     """Run `names` in order; "compile" is run first, and reported, when a check needs it and it was not asked."""
     if NEED_LOADED_CODE & set(names) and "compile" not in names:
         names = ["compile", *names]

@@ -8,8 +8,8 @@ from typing import Any
 
 import jinja2
 
-from mlca_verify.conform.tools import run
 from mlca_verify.errors import ToolError
+from mlca_verify.tools import run
 
 TEMPLATE = Path(__file__).with_name("page.html.j2")
 

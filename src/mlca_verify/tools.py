@@ -1,4 +1,4 @@
-"""External tools: find them, run them with a timeout, and say clearly what is missing."""
+"""External tools: find them, run them with a timeout, and say clearly what is missing; build a shared library."""
 
 from __future__ import annotations
 
@@ -56,3 +56,9 @@ def run(
         raise ToolError(f"error: {command[0]} did not finish within {timeout:.0f} s") from None
     output = done.stdout if done.returncode == 0 or stdin is None else done.stdout + (done.stderr or "")
     return Ran(tuple(command), done.returncode, output)
+
+
+def build_shared(c_file: Path, out: Path, extra: tuple[str, ...] = ()) -> Ran:
+    """Compile `c_file` (and any sources in `extra`) into the shared library `out`, with the project's warnings
+    as errors."""
+    return run(["gcc", *C_FLAGS, *extra, "-O2", "-shared", "-fPIC", "-o", str(out), str(c_file)], timeout=120)

@@ -1,0 +1,159 @@
+"""The one owner of generated code: where each file of a machine lives, and how to load it.
+
+Every consumer (gen and its drift check, conform, emit, evidence, the closed loop) finds a machine's files through
+`Layout` and runs them through one small protocol, `Generated`: `step`, `holds` (the monitor on a state) and
+`advance` (one step and the monitor on the state reached, answered as one int: the closed loop's call).
+
+Python is imported from its file; C is built with the interpreter's headers into an extension module whose
+functions the interpreter calls directly (METH_FASTCALL). That is the closed loop's fast path: measured with
+`bench/bench_sim.py --instructions 500`, a step through ctypes and libffi cost several times the instructions
+of this call, and the code and data they touch between two SUMO steps evicted part of SUMO's from the cache.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+import sysconfig
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Protocol
+
+from mlca_verify.errors import ToolError
+from mlca_verify.tools import build_shared
+
+if TYPE_CHECKING:  # codegen renders with this module's layout: imported where used, not at import time
+    from mlca_verify.codegen.ir import MachineIR
+
+HOLDS = 0x10000  # the bit of an `advance` answer that says every invariant holds in the state reached
+STATE_BITS = 0xFFFF  # the bits of an `advance` answer that are the state reached
+FILES = {"python": "python/{module}_fsm.py", "c-header": "c/{module}_fsm.h", "c-source": "c/{module}_fsm.c"}
+GENERATED_GLOB = "*/*_fsm.*"  # every file any machine's layout holds
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where the generated files of the machine `module` live under the folder `root` (`generated/`)."""
+
+    root: Path
+    module: str
+
+    def relative(self, kind: str) -> str:
+        """The path of one kind of file (a key of FILES) relative to `root`."""
+        return FILES[kind].format(module=self.module)
+
+    @property
+    def python(self) -> Path:
+        return self.root / self.relative("python")
+
+    @property
+    def c_source(self) -> Path:
+        return self.root / self.relative("c-source")
+
+    @property
+    def c_header(self) -> Path:
+        return self.root / self.relative("c-header")
+
+    def missing(self) -> list[Path]:
+        """The generated files that are not there."""
+        return [p for p in (self.python, self.c_header, self.c_source) if not p.is_file()]
+
+
+class Generated(Protocol):
+    """A generated machine, loaded: states are the generated enum's integers, inputs given in declared order."""
+
+    def step(self, state: int, values: Sequence[bool]) -> int: ...
+
+    def holds(self, state: int, values: Sequence[bool]) -> bool: ...
+
+    def advance(self, state: int, *values: bool) -> int: ...
+
+
+class PythonMachine:
+    """The generated Python module; it also names the invariants that fail (`failing`)."""
+
+    def __init__(self, module: ModuleType, inputs: Sequence[str]) -> None:
+        self.module = module
+        self.inputs = tuple(inputs)
+
+    def _inputs(self, values: Sequence[bool]) -> object:
+        return self.module.Inputs(**dict(zip(self.inputs, values, strict=True)))
+
+    def step(self, state: int, values: Sequence[bool]) -> int:
+        return int(self.module.step(state, self._inputs(values)))
+
+    def failing(self, state: int, values: Sequence[bool]) -> list[str]:
+        """The ids of the invariants that fail in `state` with these inputs."""
+        return list(self.module.check_invariants(self._inputs(values), state))
+
+    def holds(self, state: int, values: Sequence[bool]) -> bool:
+        return not self.failing(state, values)
+
+    def advance(self, state: int, *values: bool) -> int:
+        new = self.step(state, values)
+        return new | (HOLDS if self.holds(new, values) else 0)
+
+
+class CMachine:
+    """The generated C, built with a small adapter into an extension module (see the module's docstring)."""
+
+    def __init__(self, extension: ModuleType) -> None:
+        self.extension = extension
+        self.advance = extension.advance  # bound once: the closed loop's one call a step
+
+    def step(self, state: int, values: Sequence[bool]) -> int:
+        return int(self.extension.step(state, *values))
+
+    def holds(self, state: int, values: Sequence[bool]) -> bool:
+        return bool(self.extension.holds(state, *values))
+
+
+def load_python(layout: Layout, inputs: Sequence[str], name: str) -> PythonMachine:
+    """Import the generated Python of `layout` as the module `name`."""
+    path = layout.python
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ToolError(f"{path}: error: cannot import generated module")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return PythonMachine(module, inputs)
+
+
+def python_headers() -> Path:
+    """The folder of this interpreter's Python.h, which the C machine's adapter is built against."""
+    folder = Path(sysconfig.get_paths()["include"])
+    if not (folder / "Python.h").is_file():
+        raise ToolError(
+            f"error: cannot build the generated C for Python: no Python.h in {folder}; install this Python's "
+            "development headers (Debian: python3-dev), as scripts/setup.sh does"
+        )
+    return folder
+
+
+def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
+    """Build the generated C of `layout` with its adapter into `build` and import it as the module `name`."""
+    from mlca_verify.codegen.render import render_template
+
+    adapter = build / f"{name}.c"
+    text = render_template("c_extension.c.j2", m=ir, extension=name, holds=hex(HOLDS))
+    adapter.write_text(text, encoding="utf-8")
+    library = build / f"{name}.so"
+    c_dir = layout.c_source.parent
+    include = ("-I", str(c_dir), "-I", str(python_headers()), str(adapter))
+    ran = build_shared(layout.c_source, library, include)
+    if ran.returncode != 0:
+        raise ToolError(f"error: cannot build the generated C of {layout.module}: {ran.output.strip()}")
+    return CMachine(import_extension(library, name))
+
+
+def import_extension(library: Path, name: str) -> ModuleType:
+    """Import the extension module `name` from the shared library `library`."""
+    spec = importlib.util.spec_from_file_location(name, library)
+    if spec is None or spec.loader is None:
+        raise ToolError(f"error: cannot load the generated C from {library}")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
