@@ -18,16 +18,18 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing as mp
-import sqlite3
 import statistics
 import tempfile
 import time
+from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
 
 from sim_check.cli import main as sim_main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
-from sim_check.runner import RunResult, run_once, run_plain
+from sim_check.db import ResultsDB
+from sim_check.results import RunResult
+from sim_check.runner import run_once, run_plain
 from sim_check.scenario import load_scenario
 
 RESOLUTIONS = (0.4, 0.8, 1.6, 3.2)
@@ -85,20 +87,29 @@ def matrix(runs: int, jobs: int, db: Path) -> None:
     argv = ["sweep", "--matrix", "paper", "--runs", str(runs), "--jobs", str(jobs), "--db", str(db), "--resume"]
     code = sim_main(argv)
     wall = time.perf_counter() - start
-    conn = sqlite3.connect(db)
     print(f"\nfull matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} workers: "
           f"{wall / 60:.1f} min wall this invocation (sweep exit {code}); target under 40 min; the paper: "
           "6.5 hours for 100 runs of one configuration")  # fmt: skip
     print(f"  {'controller':12} {'avs':>3} {'runs':>5} {'mean s/run (one worker)':>24}")
-    for controller, avs, n, mean in conn.execute(
-        "SELECT controller, avs, COUNT(*), AVG(wall_s) FROM runs GROUP BY controller, avs ORDER BY controller, avs"
-    ):
-        print(f"  {controller:12} {avs:>3} {n:>5} {mean:24.2f}")
-    total = conn.execute("SELECT SUM(wall_s) FROM runs").fetchone()[0] or 0.0
+    walls = _wall_times(db)
+    for (controller, avs), times in sorted(walls.items()):
+        print(f"  {controller:12} {avs:>3} {len(times):>5} {statistics.mean(times):24.2f}")
+    total = sum(t for times in walls.values() for t in times)
     print(
         f"  sum of run times {total / 60:.1f} min, i.e. {total / 60 / jobs:.1f} min on {jobs} workers "
         "if perfectly shared"
     )
+
+
+def _wall_times(db: Path) -> dict[tuple[str, int], list[float]]:
+    """The wall time of every stored run, by (controller, AVs)."""
+    with ResultsDB.open_for_reading(db) as results:
+        table = results.table_rows("runs")
+    at = {name: k for k, name in enumerate(table.columns)}
+    walls: dict[tuple[str, int], list[float]] = defaultdict(list)
+    for row in table.rows:
+        walls[(row[at["controller"]], row[at["avs"]])].append(row[at["wall_s"]])
+    return walls
 
 
 def main() -> None:

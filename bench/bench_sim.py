@@ -36,6 +36,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from sim_check.controllers import load_controller
+from sim_check.db import ResultsDB
 from sim_check.runner import SIM_LIMIT_S, run_once, run_plain
 from sim_check.scenario import load_scenario
 from sim_check.sweep import Sweep
@@ -215,8 +216,9 @@ def main() -> None:
         if args.runs < 1:
             return
         start = time.perf_counter()
-        sweep = Sweep(load_scenario(), work / "bench.sqlite", args.jobs, timeout_s=600)
-        results = sweep.run([(CONTROLLER, 1, seed) for seed in range(args.runs)], lambda r: None)
+        with ResultsDB.open_for_writing(work / "bench.sqlite") as database:
+            sweep = Sweep(load_scenario(), database, args.jobs, timeout_s=600)
+            results = sweep.run([(CONTROLLER, 1, seed) for seed in range(args.runs)], lambda r: None)
         wall = time.perf_counter() - start
         failed = sum(r.status != "done" for r in results)
         start = time.perf_counter()

@@ -9,10 +9,10 @@ Usage: .venv/bin/python scripts/refresh_comparison.py matrix.sqlite
 from __future__ import annotations
 
 import csv
-import sqlite3
 import sys
 from pathlib import Path
 
+from sim_check.db import ResultsDB
 from sim_check.report import write_report
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "comparison"
@@ -20,13 +20,13 @@ TABLES = ("runs", "av_metrics", "violations")
 
 
 def export(db: Path, out: Path) -> None:
-    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as conn:
+    with ResultsDB.open_for_reading(db) as results:
         for table in TABLES:
-            cursor = conn.execute(f"SELECT * FROM {table} ORDER BY 1, 2, 3, 4")
+            rows = results.table_rows(table)
             with (out / f"{table}.csv").open("w", newline="", encoding="utf-8") as f:
                 writer = csv.writer(f, lineterminator="\n")
-                writer.writerow(d[0] for d in cursor.description)
-                writer.writerows(cursor)
+                writer.writerow(rows.columns)
+                writer.writerows(rows.rows)
 
 
 def main() -> None:

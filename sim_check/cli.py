@@ -4,24 +4,28 @@ run failed or the monitor fired, 2 on bad input (one line on stderr)."""
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import itertools
 import math
-import sqlite3
 import sys
 import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TypeVar
+from typing import TYPE_CHECKING, TypeVar
 
 from mlca_verify import cli_base
 from mlca_verify.cli import write_json
 from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser
 from mlca_verify.errors import MlcaError, UsageError
-from sim_check import db
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
-from sim_check.runner import MARKS_KM, RunResult, run_once
+from sim_check.db import Plan, ResultsDB
+from sim_check.results import MARKS_KM, Job, RunResult
 from sim_check.scenario import LIMITS, MAX_SEED, Scenario, load_scenario
-from sim_check.sweep import Job, RaySweep, Sweep
+
+if TYPE_CHECKING:  # SUMO and the plotting libraries are the `sim` extra: imported by the commands that use them
+    from sim_check.sweep import Sweep
+
+SIM_EXTRA = ("libsumo", "sumo", "sumolib", "numpy", "scipy", "matplotlib")
 
 T = TypeVar("T")
 MAX_RUNS = 100_000  # seeds per configuration in one sweep
@@ -109,20 +113,38 @@ def _table(results: Sequence[RunResult]) -> str:
     return "\n".join(lines)
 
 
+def require_extra(command: str) -> None:
+    """Refuse, with what to install, a command whose simulation dependencies (the `sim` extra) are missing."""
+    missing = [name for name in SIM_EXTRA if importlib.util.find_spec(name) is None]
+    if missing:
+        raise UsageError(f"error: mlca-sim {command} needs the simulation extra, missing {', '.join(missing)}: "
+                         "pip install 'mlca-verify[sim]'")  # fmt: skip
+
+
 def cmd_run(args: argparse.Namespace) -> int:
+    require_extra("run")
     scenario = load_scenario(args.scenario)
     if args.avs is not None:
         scenario = scenario.with_avs(args.avs)
-    conn = db.connect(args.db) if args.db else None  # a database that cannot take the run is refused first
-    if conn and (args.controller, scenario.traffic.avs, args.seed) in db.done(conn):
-        raise UsageError(f"{args.db}: error: already holds this run ({args.controller}, {scenario.traffic.avs} "
-                         f"AVs, seed {args.seed}); give another --db")  # fmt: skip
+    if not args.db:
+        return _run(args, scenario, None)
+    with ResultsDB.open_for_writing(args.db) as results:  # a database that cannot take the run is refused first
+        if (args.controller, scenario.traffic.avs, args.seed) in results.stored_keys():
+            raise UsageError(f"{args.db}: error: already holds this run ({args.controller}, "
+                             f"{scenario.traffic.avs} AVs, seed {args.seed}); give another --db")  # fmt: skip
+        return _run(args, scenario, results)
+
+
+def _run(args: argparse.Namespace, scenario: Scenario, results: ResultsDB | None) -> int:
+    """One run, printed, stored in `results` (if any) and written as JSON (if asked)."""
+    from sim_check.runner import run_once
+
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as work:
         result = run_once(scenario, args.controller, args.seed, Path(work))
     print(_table([result]))
     print(f"{result.sim_steps} steps, {result.vehicle_steps} vehicle-steps, {result.wall_s:.2f} s wall, "
           f"{result.collisions} collisions, {result.monitor_violations} monitor violations")  # fmt: skip
-    if conn and not db.store(conn, result):
+    if results and not results.store(result):
         print(f"{args.db}: another process stored this run meanwhile; not stored again", file=sys.stderr)
     if args.json:
         write_json(str(args.json), result.to_json())
@@ -154,7 +176,7 @@ def _wanted(args: argparse.Namespace) -> list[Job]:
     return list(itertools.product(controllers, avs, range(args.runs)))
 
 
-def _planned(args: argparse.Namespace, wanted: list[Job], plan: db.Plan) -> str:
+def _planned(args: argparse.Namespace, wanted: list[Job], plan: Plan) -> str:
     where = f"the Ray cluster at {args.ray}" if args.ray else f"{args.jobs} workers"
     line = f"{len(wanted)} runs wanted, {plan.stored} already in {args.db}, {len(plan.todo)} to run on {where}"
     if plan.retried:
@@ -191,28 +213,35 @@ class Progress:
         return f"{c['done']} runs done, {c['failed']} failed, {c['violations']} monitor violations"
 
 
-def _sweep(args: argparse.Namespace, scenario: Scenario, conn: sqlite3.Connection) -> Sweep:
+def _sweep(args: argparse.Namespace, scenario: Scenario, results: ResultsDB) -> Sweep:
+    from sim_check.sweep import RaySweep, Sweep
+
     try:
         if args.ray:
-            return RaySweep(scenario, conn, args.ray, args.timeout)
-        return Sweep(scenario, conn, args.jobs, args.timeout)
+            return RaySweep(scenario, results, args.ray, args.timeout)
+        return Sweep(scenario, results, args.jobs, args.timeout)
     except BaseException:
-        db.release(conn)
+        results.release()
         raise
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    require_extra("sweep")
     wanted = _wanted(args)
     scenario = load_scenario(args.scenario)
-    conn = db.connect(args.db)
-    plan = db.lease(conn, wanted, resume=args.resume, retry_failed=args.retry_failed)
-    sweep = _sweep(args, scenario, conn)
-    print(_planned(args, wanted, plan), flush=True)
+    with ResultsDB.open_for_writing(args.db) as results:  # this process's one connection: it stores every run
+        plan = results.lease(wanted, resume=args.resume, retry_failed=args.retry_failed)
+        sweep = _sweep(args, scenario, results)
+        print(_planned(args, wanted, plan), flush=True)
+        return _run_sweep(args, sweep, plan, wanted)
+
+
+def _run_sweep(args: argparse.Namespace, sweep: Sweep, plan: Plan, wanted: list[Job]) -> int:
     progress = Progress(len(plan.todo))
     try:
         sweep.run(plan.todo, progress)
     except KeyboardInterrupt:
-        stored = len(db.done(conn) & set(wanted))
+        stored = len(sweep.database.stored_keys() & set(wanted))
         print(f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
               "command with --resume to do the rest", file=sys.stderr)  # fmt: skip
         return EXIT_INTERRUPTED
@@ -228,11 +257,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    require_extra("report")
     from sim_check.report import write_report
 
     if not args.db.is_file():
         raise UsageError(f"{args.db}: error: no such results database")
-    written = write_report(db.readable(args.db), args.out)
+    written = write_report(args.db, args.out)  # read (or refused) before anything is written
     print(f"wrote {len(written)} files to {args.out}: {', '.join(p.name for p in written)}")
     return 0
 

@@ -9,7 +9,12 @@ the runs it is going to do (table `leases`, with its host, pid and the pid's sta
 leaves them alone while the first one lives. Leases of a process that has died are reclaimed.
 
 The file is marked as a results database (`PRAGMA application_id`) with the version of its layout
-(`PRAGMA user_version`); anything else is refused before a run starts, and nothing is written into it."""
+(`PRAGMA user_version`); anything else is refused before a run starts, and nothing is written into it.
+
+`ResultsDB` is the one way in, for sim_check and for the evidence of mlca_verify alike: opened once per command
+(`ResultsDB.open_for_writing` or `ResultsDB.open_for_reading`) in a `with` block that closes it, it stores runs,
+says which are stored, leases and releases them, and answers the grouped reads of the report and the monitor
+summary of the evidence. Nothing else in sim_check or mlca_verify holds SQL."""
 
 from __future__ import annotations
 
@@ -19,17 +24,16 @@ import os
 import socket
 import sqlite3
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 from urllib.parse import quote
 
 from mlca_verify.errors import UsageError
-from sim_check.runner import MARKS_KM, MECHANISM, STATES, RunResult
+from sim_check.results import MARKS_KM, MECHANISM, STATES, Job, RunResult
 
 T = TypeVar("T")
-Job = tuple[str, int, int]  # controller, AVs, seed
 
 APPLICATION_ID = 0x4D4C4353  # "MLCS": this file is a results database of mlca-sim
 SCHEMA_VERSION = 2  # 1: runs, av_metrics, violations (unmarked files); 2: the same and leases
@@ -108,7 +112,7 @@ def _started(pid: int) -> str:
     return "" if len(after) < 20 or after[0] in "ZX" else after[19]
 
 
-def uri(path: Path, mode: str) -> str:
+def _uri(path: Path, mode: str) -> str:
     """An SQLite URI for the file `path`, taken literally ('#', '?' and '%' in names included)."""
     return f"file:{quote(str(path.absolute()))}?mode={mode}"
 
@@ -127,7 +131,7 @@ def _open(path: Path, mode: str) -> Database:
     if path.is_dir():
         raise UsageError(f"{path}: error: is a folder, not a results database")
     try:
-        conn = sqlite3.connect(uri(path, mode), uri=True, timeout=BUSY_TIMEOUT_S, factory=Database)
+        conn = sqlite3.connect(_uri(path, mode), uri=True, timeout=BUSY_TIMEOUT_S, factory=Database)
     except sqlite3.Error as err:
         raise UsageError(f"{path}: error: cannot open the results database: {err}") from None
     conn.path = str(path)
@@ -169,8 +173,12 @@ def _retrying(
 
 
 def connect(path: Path) -> sqlite3.Connection:
-    """Open (or create) a results database for writing. A file that is not one, one of another version, or one
-    that cannot be written is refused (UsageError) before anything is written into it."""
+    """The bare connection of `ResultsDB.open_for_writing`, for a tool that rebuilds a database from its rows;
+    everything else goes through `ResultsDB`. The caller closes it."""
+    return _connect(path)
+
+
+def _connect(path: Path) -> Database:
     conn = _open(path, "rw" if path.exists() else "rwc")
     try:
         _retrying(conn, lambda c: _prepare(c, path), "write to the results database")
@@ -236,15 +244,12 @@ def _probe(conn: sqlite3.Connection) -> None:
     conn.execute("DELETE FROM leases WHERE controller = '' AND seed = -1")
 
 
-def done(conn: sqlite3.Connection) -> set[Job]:
-    """The runs stored, finished or failed."""
+def _stored_keys(conn: sqlite3.Connection) -> set[Job]:
     rows = _retrying(conn, lambda c: c.execute("SELECT controller, avs, seed FROM runs").fetchall(), "read", "BEGIN")
     return {(c, a, s) for c, a, s in rows}
 
 
-def store(conn: sqlite3.Connection, r: RunResult) -> bool:
-    """Write one run and its AVs in a single transaction, and drop its lease; False (and nothing written) when
-    the database holds the run already, stored by another writer."""
+def _store(conn: sqlite3.Connection, r: RunResult) -> bool:
     return _retrying(conn, lambda c: _insert(c, r), f"store run {r.controller}, {r.avs} AVs, seed {r.seed}")
 
 
@@ -267,7 +272,7 @@ def _insert(conn: sqlite3.Connection, r: RunResult) -> bool:
     for v in r.violations:
         conn.execute(
             "INSERT INTO violations VALUES (?, ?, ?, ?, ?, ?, ?)",
-            (*key, v["av"], v["time_s"], ",".join(v["invariants"]), json.dumps(v["trace"])),
+            (*key, v.av, v.time_s, ",".join(v.invariants), json.dumps(v.trace)),
         )
     return True
 
@@ -282,9 +287,7 @@ class Plan:
     held: dict[int, int] = field(default_factory=dict)  # pid of a live sweep -> wanted runs it holds
 
 
-def lease(conn: sqlite3.Connection, wanted: list[Job], *, resume: bool, retry_failed: bool) -> Plan:
-    """Lease the wanted runs nobody has stored or holds, for this process, in one transaction. Without `resume`,
-    wanted runs already stored or held are an error; with `retry_failed`, failed runs are removed and leased."""
+def _lease(conn: sqlite3.Connection, wanted: list[Job], resume: bool, retry_failed: bool) -> Plan:
     me = Owner.me()
     return _retrying(conn, lambda c: _plan(c, wanted, me, resume, retry_failed), "lease the runs")
 
@@ -331,24 +334,230 @@ def _delete_run(conn: sqlite3.Connection, job: Job) -> None:
         conn.execute(f"DELETE FROM {table} WHERE controller = ? AND avs = ? AND seed = ?", job)
 
 
-def release(conn: sqlite3.Connection) -> None:
-    """Drop the leases this process still holds (runs it did not finish); best effort, as a dead process's
-    leases are reclaimed anyway."""
+def _release(conn: sqlite3.Connection) -> None:
     me = Owner.me()
     sql = "DELETE FROM leases WHERE host = ? AND pid = ? AND started = ?"
     with contextlib.suppress(UsageError):
         _retrying(conn, lambda c: c.execute(sql, (me.host, me.pid, me.started)), "release the leases")
 
 
-def readable(path: Path) -> Path:
-    """Check that `path` is a results database of any version (for reading); return it."""
-    conn = _open(path, "ro")
-    try:
-        tables = _retrying(conn, _tables, "read the results database", "BEGIN")
-        app, _ = _marks(conn)
-        if app not in (0, APPLICATION_ID) or "runs" not in tables:
-            raise UsageError(f"{path}: error: not a results database of mlca-sim")
-        _columns(conn, path, tables & {"runs", "av_metrics"})
-    finally:
-        conn.close()
-    return path
+def _check_readable(conn: sqlite3.Connection, path: Path) -> None:
+    """Refuse a file that is not a results database of any version (for reading)."""
+    tables = _retrying(conn, _tables, "read the results database", "BEGIN")
+    app, _ = _marks(conn)
+    if app not in (0, APPLICATION_ID) or "runs" not in tables:
+        raise UsageError(f"{path}: error: not a results database of mlca-sim")
+
+
+# --- reads -------------------------------------------------------------------------------------------------
+
+REPORT_STATUSES = "SELECT controller, avs, status, monitor_violations FROM runs ORDER BY controller, avs, seed"
+REPORT_FINISHED = (
+    f"SELECT r.controller, r.avs, r.seed, {', '.join(f'SUM(m.lc_{km}km)' for km in MARKS_KM)},"
+    " SUM(m.collisions), SUM(m.mingap_contacts), AVG(m.travel_time_s), AVG(m.mean_speed_ms), r.bg_mean_speed_ms"
+    " FROM runs r JOIN av_metrics m USING (controller, avs, seed) WHERE r.status = 'done'"
+    " GROUP BY r.controller, r.avs, r.seed ORDER BY r.controller, r.avs, r.seed"
+)
+REPORT_MECHANISM = (
+    "SELECT m.controller, m.avs, COUNT(*), SUM(m.needs), SUM(m.needs_moved), SUM(m.needs_open),"
+    " SUM(m.needs_deferred),"
+    f" SUM(m.need_s), SUM(m.deferred_s), {', '.join(f'SUM(m.{s.lower()}_s)' for s in STATES)}"
+    " FROM av_metrics m JOIN runs r USING (controller, avs, seed)"
+    " WHERE r.status = 'done' AND m.needs IS NOT NULL GROUP BY m.controller, m.avs"
+)
+SUMMARY_COLUMNS = ("controller", "status", "monitor_violations")
+
+
+@dataclass(frozen=True)
+class RunStatus:
+    """One stored run, finished or failed, as the report counts it."""
+
+    controller: str
+    avs: int
+    status: str
+    monitor_violations: int | None
+
+
+@dataclass(frozen=True)
+class RunTotals:
+    """One finished run over its AVs: sums of lane changes (one per mark of MARKS_KM), collisions and minGap
+    contacts; means of travel time and speed over the AVs that have one; the other traffic's mean speed."""
+
+    controller: str
+    avs: int
+    seed: int
+    lane_changes: tuple[int, ...]
+    collisions: int
+    mingap_contacts: int | None
+    travel_time_s: float | None
+    mean_speed_ms: float | None
+    bg_mean_speed_ms: float | None
+
+
+@dataclass(frozen=True)
+class MechanismTotals:
+    """Sums over the AVs of one (controller, AVs)'s finished runs that record the mechanism (`needs` not null);
+    `state_s` has one entry per state of STATES, None where no AV has one."""
+
+    controller: str
+    avs: int
+    av_count: int
+    needs: int
+    moved: int
+    open: int
+    deferred: int
+    need_s: float
+    deferred_s: float
+    state_s: tuple[float | None, ...]
+
+
+@dataclass(frozen=True)
+class ReportRows:
+    """What `mlca-sim report` reads, from one snapshot of the database, each list in (controller, AVs) order."""
+
+    statuses: list[RunStatus]
+    finished: list[RunTotals]
+    mechanism: list[MechanismTotals]
+
+
+@dataclass(frozen=True)
+class MonitorSummary:
+    """The runs of some controllers: how many are stored, how many failed, and their monitor violations."""
+
+    runs: int
+    failed_runs: int
+    monitor_violations: int
+
+
+@dataclass(frozen=True)
+class TableRows:
+    """A table's column names and its rows (values as SQLite holds them), ordered by the first four columns."""
+
+    columns: tuple[str, ...]
+    rows: list[tuple[Any, ...]]
+
+
+def _report_rows(conn: sqlite3.Connection, path: Path) -> ReportRows:
+    _columns(conn, path, _tables(conn) & {"runs", "av_metrics"})
+    statuses = [RunStatus(*row) for row in conn.execute(REPORT_STATUSES)]
+    finished = [_run_totals(row) for row in conn.execute(REPORT_FINISHED)]
+    mechanism = [_mechanism_totals(row) for row in conn.execute(REPORT_MECHANISM)]
+    return ReportRows(statuses, finished, mechanism)
+
+
+def _run_totals(row: tuple[Any, ...]) -> RunTotals:
+    controller, avs, seed, *lc, collisions, mingap, travel, speed, bg = row
+    return RunTotals(controller, avs, seed, tuple(lc), collisions, mingap, travel, speed, bg)
+
+
+def _mechanism_totals(row: tuple[Any, ...]) -> MechanismTotals:
+    controller, avs, count, needs, moved, still, deferred, need_s, deferred_s, *state_s = row
+    return MechanismTotals(controller, avs, count, needs, moved, still, deferred, need_s, deferred_s, tuple(state_s))
+
+
+def _monitor_summary(conn: sqlite3.Connection, path: Path, controllers: Sequence[str]) -> MonitorSummary:
+    have = {row[1] for row in conn.execute("PRAGMA table_info(runs)")}
+    missing = [column for column in SUMMARY_COLUMNS if column not in have]
+    if missing:
+        raise UsageError(f"{path}: error: not a results database of mlca-sim (table runs has no column "
+                         f"{', '.join(missing)})")  # fmt: skip
+    query = (
+        "SELECT COUNT(*), COALESCE(SUM(monitor_violations), 0), COALESCE(SUM(status != 'done'), 0) FROM runs "
+        f"WHERE controller IN ({', '.join('?' for _ in controllers)})"
+    )
+    runs, violations, failed = conn.execute(query, tuple(controllers)).fetchone()
+    return MonitorSummary(runs, failed, violations)
+
+
+def _table_rows(conn: sqlite3.Connection, table: str) -> TableRows:
+    if table not in COLUMNS and table != "violations":
+        raise ValueError(f"no table {table!r} in a results database")
+    cursor = conn.execute(f"SELECT * FROM {table} ORDER BY 1, 2, 3, 4")
+    return TableRows(tuple(d[0] for d in cursor.description), cursor.fetchall())
+
+
+# --- the API -----------------------------------------------------------------------------------------------
+
+
+class ResultsDB:
+    """An open results database, the one way in: use it in a `with` block, which closes it.
+
+        with ResultsDB.open_for_writing(path) as results:
+            if results.store(run): ...
+
+    Every read is one transaction (a consistent snapshot), every write an immediate transaction, retried while
+    another process holds the lock; failures are one-line UsageErrors naming the file."""
+
+    def __init__(self, conn: Database, path: Path) -> None:
+        self._conn = conn
+        self.path = path
+        self._closed = False
+
+    @classmethod
+    def open_for_writing(cls, path: Path) -> ResultsDB:
+        """Open (or create) a results database for writing. A file that is not one, one of another version, or
+        one that cannot be written is refused (UsageError) before anything is written into it."""
+        return cls(_connect(path), path)
+
+    @classmethod
+    def open_for_reading(cls, path: Path) -> ResultsDB:
+        """Open a results database of any version read-only; a file that is not one is refused (UsageError).
+        Each read checks the columns it reads."""
+        conn = _open(path, "ro")
+        try:
+            _check_readable(conn, path)
+        except BaseException:
+            conn.close()
+            raise
+        return cls(conn, path)
+
+    def __enter__(self) -> ResultsDB:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the connection; closing it twice is harmless."""
+        self._conn.close()
+        self._closed = True
+
+    @property
+    def closed(self) -> bool:
+        """Whether the connection is closed."""
+        return self._closed
+
+    def stored_keys(self) -> set[Job]:
+        """The (controller, AVs, seed) of every run stored, finished or failed."""
+        return _stored_keys(self._conn)
+
+    def store(self, run: RunResult) -> bool:
+        """Write one run and its AVs in a single transaction, and drop its lease; False (and nothing written)
+        when the database holds the run already, stored by another writer."""
+        return _store(self._conn, run)
+
+    def lease(self, wanted: list[Job], *, resume: bool, retry_failed: bool) -> Plan:
+        """Lease the wanted runs nobody has stored or holds, for this process, in one transaction. Without
+        `resume`, wanted runs already stored or held are an error; with `retry_failed`, failed runs are removed
+        and leased."""
+        return _lease(self._conn, wanted, resume, retry_failed)
+
+    def release(self) -> None:
+        """Drop the leases this process still holds (runs it did not finish); best effort, as a dead process's
+        leases are reclaimed anyway."""
+        _release(self._conn)
+
+    def report_rows(self) -> ReportRows:
+        """The grouped rows `mlca-sim report` draws from; a table with other columns is refused (UsageError)."""
+        return _retrying(self._conn, lambda c: _report_rows(c, self.path), "read the results database", "BEGIN")
+
+    def monitor_summary(self, controllers: Sequence[str]) -> MonitorSummary:
+        """Runs, failed runs and monitor violations of the runs of `controllers`. Needs only the columns
+        controller, status and monitor_violations of table runs; without them the file is refused."""
+        return _retrying(
+            self._conn, lambda c: _monitor_summary(c, self.path, controllers), "read the results database", "BEGIN"
+        )
+
+    def table_rows(self, table: str) -> TableRows:
+        """Every row of `table` (runs, av_metrics, violations or leases), ordered by its first four columns."""
+        return _retrying(self._conn, lambda c: _table_rows(c, table), "read the results database", "BEGIN")

@@ -3,14 +3,13 @@ interval and the paper's value beside it, and report.md: paper value against mea
 per claim of the paper with the test behind it, the mechanism behind MLCA's numbers and the cost the paper left
 out (travel time and speed of the AVs and of the other traffic).
 
-Reading the database is `load`; the numbers are pure functions of what it returns; drawing is matplotlib (Agg),
-with fixed metadata so that the same database gives byte-identical files."""
+Reading the database is `load`, through its API (sim_check.db.ResultsDB); the numbers are pure functions of what
+it returns; drawing is matplotlib (Agg), with fixed metadata so that the same database gives byte-identical files."""
 
 from __future__ import annotations
 
 import io
 import math
-import sqlite3
 from collections import defaultdict
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -19,7 +18,7 @@ from typing import Any
 
 from mlca_verify.files import write_atomic
 from sim_check.controllers import SETUPS
-from sim_check.db import uri
+from sim_check.db import MechanismTotals, ResultsDB, RunTotals
 from sim_check.paper_results import (
     CLAIMS,
     COLLISION_CITE,
@@ -30,8 +29,8 @@ from sim_check.paper_results import (
     Claim,
     LaneFigure,
 )
-from sim_check.runner import STATES
-from sim_check.stats import Verdict, extreme_verdict, mean_ci, reduction_verdict
+from sim_check.results import STATES
+from sim_check.stats import ClaimVerdict, extreme_verdict, mean_ci, reduction_verdict
 
 Key = tuple[str, int]  # controller, AVs
 
@@ -87,45 +86,38 @@ class Data:
                     yield controller, avs, self.groups[(controller, avs)]
 
 
-def load(db: Path) -> Data:
-    conn = sqlite3.connect(uri(db, "ro"), uri=True)
+def load(results: ResultsDB) -> Data:
+    """The groups of a results database, from one snapshot of its rows."""
+    rows = results.report_rows()
     groups: dict[Key, Group] = defaultdict(Group)
-    for controller, avs, status, violations in conn.execute(
-        "SELECT controller, avs, status, monitor_violations FROM runs ORDER BY controller, avs, seed"
-    ):
-        g = groups[(controller, avs)]
-        g.failed += status != "done"
-        g.violations += violations or 0
-    query = (
-        f"SELECT r.controller, r.avs, r.seed, {', '.join(f'SUM(m.lc_{km}km)' for km in MARKS)},"
-        " SUM(m.collisions), SUM(m.mingap_contacts), AVG(m.travel_time_s), AVG(m.mean_speed_ms), r.bg_mean_speed_ms"
-        " FROM runs r JOIN av_metrics m USING (controller, avs, seed) WHERE r.status = 'done'"
-        " GROUP BY r.controller, r.avs, r.seed ORDER BY r.controller, r.avs, r.seed"
-    )
-    for controller, avs, seed, *lc, coll, mingap, travel, speed, bg in conn.execute(query):
-        g = groups[(controller, avs)]
-        g.seeds.append(seed)
-        for km, value in zip(MARKS, lc, strict=True):
-            g.lc[km].append(float(value))
-        g.collisions.append(float(coll))
-        g.mingap.append(float(mingap or 0))
-        for target, value in ((g.travel_s, travel), (g.speed_ms, speed), (g.bg_speed_ms, bg)):
-            if value is not None:
-                target.append(float(value))
-    states = ", ".join(f"SUM(m.{s.lower()}_s)" for s in STATES)
-    mechanism = (
-        "SELECT m.controller, m.avs, COUNT(*), SUM(m.needs), SUM(m.needs_moved), SUM(m.needs_open),"
-        " SUM(m.needs_deferred),"
-        f" SUM(m.need_s), SUM(m.deferred_s), {states} FROM av_metrics m JOIN runs r USING (controller, avs, seed)"
-        " WHERE r.status = 'done' AND m.needs IS NOT NULL GROUP BY m.controller, m.avs"
-    )
-    for controller, avs, count, needs, moved, still, deferred, need_s, deferred_s, *state_s in conn.execute(mechanism):
-        g = groups[(controller, avs)]
-        g.av_count, g.needs, g.moved, g.open, g.deferred = count, int(needs), int(moved), int(still), int(deferred)
-        g.need_s, g.deferred_s = float(need_s), float(deferred_s)
-        g.state_s = {s: float(v or 0.0) for s, v in zip(STATES, state_s, strict=True)}
-    conn.close()
-    return Data(db, dict(groups))
+    for status in rows.statuses:
+        g = groups[(status.controller, status.avs)]
+        g.failed += status.status != "done"
+        g.violations += status.monitor_violations or 0
+    for run in rows.finished:
+        _add_run(groups[(run.controller, run.avs)], run)
+    for mechanism in rows.mechanism:
+        _add_mechanism(groups[(mechanism.controller, mechanism.avs)], mechanism)
+    return Data(results.path, dict(groups))
+
+
+def _add_run(g: Group, run: RunTotals) -> None:
+    g.seeds.append(run.seed)
+    for km, value in zip(MARKS, run.lane_changes, strict=True):
+        g.lc[km].append(float(value))
+    g.collisions.append(float(run.collisions))
+    g.mingap.append(float(run.mingap_contacts or 0))
+    for target, mean in ((g.travel_s, run.travel_time_s), (g.speed_ms, run.mean_speed_ms),
+                         (g.bg_speed_ms, run.bg_mean_speed_ms)):  # fmt: skip
+        if mean is not None:
+            target.append(float(mean))
+
+
+def _add_mechanism(g: Group, m: MechanismTotals) -> None:
+    g.av_count, g.needs, g.moved = m.av_count, int(m.needs), int(m.moved)
+    g.open, g.deferred = int(m.open), int(m.deferred)
+    g.need_s, g.deferred_s = float(m.need_s), float(m.deferred_s)
+    g.state_s = {s: float(v or 0.0) for s, v in zip(STATES, m.state_s, strict=True)}
 
 
 def label(controller: str) -> str:
@@ -257,7 +249,7 @@ def cost_figure(data: Data, controllers: list[str], out: Path) -> list[Path]:
 
 
 # ---------------------------------------------------------------------------------------------------- report.md
-def claim_rows(data: Data, claim: Claim) -> list[tuple[str, Verdict]]:
+def claim_rows(data: Data, claim: Claim) -> list[tuple[str, ClaimVerdict]]:
     """(scope, verdict) per evaluation of one claim."""
     if claim.kind == "reduction":
         if claim.metric == "collisions":
@@ -379,8 +371,10 @@ def _cost(data: Data) -> list[str]:
 
 
 def write_report(db: Path, out: Path) -> list[Path]:
-    """Write the figures (PNG and SVG) and report.md into `out`; returns the files written."""
-    data = load(db)
+    """Write the figures (PNG and SVG) and report.md into `out` from the results database `db`, which is read
+    (and refused when it is not one) before anything is written; returns the files written."""
+    with ResultsDB.open_for_reading(db) as results:
+        data = load(results)
     out.mkdir(parents=True, exist_ok=True)
     figures: list[Path] = []
     for fig_spec in LANE_FIGURES:

@@ -16,95 +16,24 @@ import hashlib
 import math
 import time
 from collections import deque
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mlca_verify.targets import HOLDS, STATE_BITS
 from sim_check import mobil
-from sim_check.controllers import HOLDS, STATE_BITS, Controller, Setup, load_controller, setup_of
+from sim_check.controllers import Controller, Setup, load_controller, setup_of
 from sim_check.reads import Leader, Reads
+from sim_check.results import AvMetrics, RunResult, Violation
 from sim_check.scenario import Scenario, build, sumo_bin
-from sim_check.sensing import Claim, Network, decides_on, sense
+from sim_check.sensing import LaneClaim, Network, decides_on, sense
 
-MARKS_KM = (5, 10, 15, 20)
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
 DWELL_S = 3.0  # a commanded lane change is not repeated within this time (SUMO's change is instantaneous)
 TRACE_STEPS = 20  # steps of history stored with a monitor violation
 SIM_LIMIT_S = 3600.0
 SAMPLE_STEPS = 10  # the background traffic's speed is sampled every this many steps
-STATES = ("IDLE", "WAITING", "MOVING_LEFT", "MOVING_RIGHT")
 SIDES = {"MOVING_LEFT": +1, "MOVING_RIGHT": -1}  # the states that move the AV, and the side they move it to
-
-
-MECHANISM = ("needs", "needs_moved", "needs_open", "needs_deferred", "need_s", "deferred_s")
-
-
-@dataclass
-class AvMetrics:
-    av: str
-    lane_changes: list[float] = field(default_factory=list)  # odometer (m) at each change
-    collisions: int = 0
-    emergency_brakes: int = 0
-    min_time_gap_s: float | None = None
-    depart_s: float | None = None
-    arrive_s: float | None = None
-    distance_m: float = 0.0
-    monitor_violations: int = 0
-    mingap_contacts: int = 0  # AV pairs closer than the follower's minGap: SUMO's default collision criterion
-    needs: int = 0  # episodes in which N held
-    needs_moved: int = 0  # of those, episodes in which the AV changed lane
-    needs_open: int = 0  # of those, episodes still open when the AV arrived: the need was never resolved
-    needs_deferred: int = 0  # of those, episodes in which a safe gap towards the wanted side was not taken
-    need_s: float = 0.0
-    deferred_s: float = 0.0
-    state_s: dict[str, float] = field(default_factory=dict)
-    sensed: bool = False  # whether N, W, L and R were computed (not for SUMO's own models nor MOBIL)
-
-    def changes_by(self, km: int) -> int:
-        return sum(1 for d in self.lane_changes if d <= km * 1000.0)
-
-    def row(self) -> dict[str, Any]:
-        travel = None if self.arrive_s is None or self.depart_s is None else self.arrive_s - self.depart_s
-        return {
-            "av": self.av,
-            **{f"lc_{km}km": self.changes_by(km) for km in MARKS_KM},
-            "collisions": self.collisions,
-            "emergency_brakes": self.emergency_brakes,
-            "min_time_gap_s": self.min_time_gap_s,
-            "travel_time_s": travel,
-            "mean_speed_ms": None if not travel else self.distance_m / travel,
-            "arrived": self.arrive_s is not None,
-            "monitor_violations": self.monitor_violations,
-            "mingap_contacts": self.mingap_contacts,
-            **{k: (getattr(self, k) if self.sensed else None) for k in MECHANISM},
-            **{f"{state.lower()}_s": self.state_s.get(state) for state in STATES},
-        }
-
-
-@dataclass
-class RunResult:
-    controller: str
-    avs: int
-    seed: int
-    status: str = "done"  # done, failed
-    reason: str = ""
-    sim_steps: int = 0
-    wall_s: float = 0.0
-    vehicle_steps: int = 0
-    collisions: int = 0
-    bg_mean_speed_ms: float | None = None  # the other traffic, sampled every SAMPLE_STEPS steps
-    trajectory_sha256: str = ""
-    metrics: list[AvMetrics] = field(default_factory=list)
-    violations: list[dict[str, Any]] = field(default_factory=list)
-
-    @property
-    def monitor_violations(self) -> int:
-        return len(self.violations)
-
-    def to_json(self) -> dict[str, Any]:
-        data = asdict(self)
-        data["metrics"] = [m.row() for m in self.metrics]
-        return data
 
 
 @dataclass
@@ -160,7 +89,7 @@ class ClosedLoop:
         self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
         self.avs: dict[str, Driving] = {}  # every AV that has departed
         self.driving: list[Driving] = []  # those not yet arrived, in the order of their ids
-        self.violations: list[dict[str, Any]] = []
+        self.violations: list[Violation] = []
         self.pairs: set[tuple[str, str]] = set()
         # (AV, edge, lane, position) of every AV every step: hashed once at the end (trajectory_sha256), in one
         # tight pass rather than a formatting and a hash call between two SUMO steps
@@ -184,7 +113,7 @@ class ClosedLoop:
             self.collide(collisions)
         speeds = 0.0
         if self.driving:
-            claims: list[Claim] = []
+            claims: list[LaneClaim] = []
             for av in self.driving:
                 speeds += self.drive(av, t, claims)
         self.steps += 1
@@ -246,7 +175,7 @@ class ClosedLoop:
                 if vid in self.metrics:
                     self.metrics[vid].collisions += 1
 
-    def drive(self, av: Driving, t: float, claims: list[Claim]) -> float:
+    def drive(self, av: Driving, t: float, claims: list[LaneClaim]) -> float:
         """One step of one AV: observe it (its metrics), and let its controller decide. Returns its speed."""
         read, m, vid = self.read, av.m, av.id
         edge, lane, pos = read.road(vid), read.lane(vid), read.position(vid)
@@ -294,7 +223,14 @@ class ClosedLoop:
         return hashlib.sha256(lines.encode()).hexdigest()
 
     def decide_sensed(
-        self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
+        self,
+        av: Driving,
+        t: float,
+        claims: list[LaneClaim],
+        where: tuple[str, int, float],
+        *,
+        leader: Leader,
+        speed: float,
     ) -> None:
         """The sensed inputs decide: through the generated machine (fsm), whose lane is then claimed for the other
         AVs, or, "without algorithm", wherever N points (the direction is 0 exactly when N does not hold)."""
@@ -306,12 +242,19 @@ class ClosedLoop:
         inputs, direction = sensed
         side = self.machine(av, t, inputs) if self.ctrl is not None else direction
         if side and self.command(av, t, where[1] + side) and self.ctrl is not None:
-            claims.append(Claim(av.id, where[0], where[1] + side, where[2]))
+            claims.append(LaneClaim(av.id, where[0], where[1] + side, where[2]))
         if inputs["N"] or av.need is not None:
             self.account(av, inputs, side)
 
     def decide_mobil(
-        self, av: Driving, t: float, claims: list[Claim], where: tuple[str, int, float], *, leader: Leader, speed: float
+        self,
+        av: Driving,
+        t: float,
+        claims: list[LaneClaim],
+        where: tuple[str, int, float],
+        *,
+        leader: Leader,
+        speed: float,
     ) -> None:
         """MOBIL (sim_check.mobil) decides, where the AV makes lane decisions; the end of the acceleration lane is
         a standing obstacle to it."""
@@ -347,7 +290,7 @@ class ClosedLoop:
             for when, old, inputs, new in av.history
         ]
         av.m.monitor_violations += 1
-        self.violations.append({"av": av.id, "time_s": round(t, 3), "invariants": failing, "trace": trace})
+        self.violations.append(Violation(av.id, round(t, 3), failing, trace))
 
     def command(self, av: Driving, t: float, target: int) -> bool:
         """Ask SUMO for a lane change, at most once per DWELL_S (SUMO's change is instantaneous)."""

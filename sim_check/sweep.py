@@ -18,7 +18,6 @@ import re
 import shutil
 import signal
 import socket
-import sqlite3
 import sys
 import tempfile
 import threading
@@ -29,11 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.errors import UsageError
-from sim_check import db
-from sim_check.runner import RunResult, run_once
+from sim_check.db import Owner, ResultsDB
+from sim_check.results import Job, RunResult
+from sim_check.runner import run_once
 from sim_check.scenario import Scenario
 
-Job = tuple[str, int, int]  # controller, AVs, seed
 WORK_PREFIX = "mlca-sim-work-"  # then the owner's pid and start time: mlca-sim-work-PID-STARTED-XXXXXXXX
 STALE = re.compile(re.escape(WORK_PREFIX) + r"(\d+)-(\d*)-")
 PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
@@ -76,18 +75,21 @@ class Slot:
 
 def work_folder() -> Path:
     """A new temporary folder for a sweep, named after this process; first, those of dead sweeps go."""
-    me = db.Owner.me()
+    me = Owner.me()
     for stale in Path(tempfile.gettempdir()).glob(f"{WORK_PREFIX}*"):
         match = STALE.match(stale.name)
-        if match and stale.is_dir() and not db.Owner(me.host, int(match[1]), match[2]).alive():
+        if match and stale.is_dir() and not Owner(me.host, int(match[1]), match[2]).alive():
             shutil.rmtree(stale, ignore_errors=True)
     return Path(tempfile.mkdtemp(prefix=f"{WORK_PREFIX}{me.pid}-{me.started}-"))
 
 
 class Sweep:
-    def __init__(self, scenario: Scenario, results: Path | sqlite3.Connection, jobs_n: int, timeout_s: float) -> None:
+    """Runs over local worker processes. The workers only run; this process stores each result in `database`
+    (opened by the caller, who closes it) as it comes."""
+
+    def __init__(self, scenario: Scenario, database: ResultsDB, jobs_n: int, timeout_s: float) -> None:
         self.scenario = scenario
-        self.conn = results if isinstance(results, sqlite3.Connection) else db.connect(results)
+        self.database = database
         self.skipped: list[Job] = []  # runs another writer stored first: not stored again
         self.jobs_n = jobs_n
         self.timeout_s = timeout_s
@@ -124,7 +126,7 @@ class Sweep:
                 slot.process.join(timeout=10)
             shutil.rmtree(self.work, ignore_errors=True)
             self.work = None
-            db.release(self.conn)
+            self.database.release()
 
     def _run(self, todo: list[Job], progress: Any, slots: list[Slot]) -> list[RunResult]:
         pending = list(todo)
@@ -173,7 +175,7 @@ class Sweep:
         if key in self.finished_keys:  # a late answer from a worker already given up on
             return
         self.finished_keys.add(key)
-        if not db.store(self.conn, result):
+        if not self.database.store(result):
             self.skipped.append(key)
         finished.append(result)
         progress(result)
@@ -190,8 +192,8 @@ class RaySweep(Sweep):
     is running from its submission on and the timeout measures the run. Results are stored by this process as
     each task ends, exactly as in a local sweep."""
 
-    def __init__(self, scenario: Scenario, results: Path | sqlite3.Connection, address: str, timeout_s: float) -> None:
-        super().__init__(scenario, results, 1, timeout_s)
+    def __init__(self, scenario: Scenario, database: ResultsDB, address: str, timeout_s: float) -> None:
+        super().__init__(scenario, database, 1, timeout_s)
         try:
             import ray
         except ImportError:
@@ -231,7 +233,7 @@ class RaySweep(Sweep):
                         self.finish(RunResult(*job, status="failed", reason=reason), finished, progress)
         finally:
             self.ray.shutdown()
-            db.release(self.conn)
+            self.database.release()
         return finished
 
     def _result(self, ref: Any, job: Job) -> RunResult:

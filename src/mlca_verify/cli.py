@@ -17,13 +17,12 @@ from mlca_verify import __version__, ci_formats, cli_base, report
 from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser
 from mlca_verify.codegen import drift, generate, write
 from mlca_verify.conform import CHECKS, conform
-from mlca_verify.conform.checks import Outcome
-from mlca_verify.conform.tools import run
+from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import ToolError, UsageError
-from mlca_verify.evidence import collect, write_bundle
+from mlca_verify.evidence import ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import write_atomic
 from mlca_verify.logic import check_all, compare
@@ -31,6 +30,7 @@ from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.tools import run
 
 __all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
 
@@ -225,7 +225,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
         print(f"{spec.path} ({spec.machine.name})")
         width = max(len(n) for n in ["up-to-date", *names])
 
-        def show(outcome: Outcome, width: int = width) -> None:
+        def show(outcome: CheckOutcome, width: int = width) -> None:
             lines = outcome.detail.splitlines() or [""]
             status = "pass" if outcome.ok else "FAIL"
             print(f"  {outcome.name.ljust(width)}  {status}  {lines[0]}", flush=True)
@@ -273,7 +273,18 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     print(
         f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True
     )
-    ev = collect(args.spec, readings, Path(args.generated), db, evidence_now())
+    spec = load_spec(args.spec)
+    runs = None
+    if db is not None:  # read through the results database's API, before the long work starts
+        try:
+            from sim_check.db import ResultsDB
+        except ImportError as err:
+            raise UsageError(f"{db}: error: --db needs the simulation part of mlca-verify (sim_check, with "
+                             f"SUMO's libsumo), which cannot be imported here: {err}") from None  # fmt: skip
+        with ResultsDB.open_for_reading(db) as results:
+            summary = results.monitor_summary(loop_controllers(spec))
+        runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations)
+    ev = collect(spec, readings, Path(args.generated), runs, evidence_now())
     for path in write_bundle(ev, Path(args.out)):
         print(f"wrote {path}")
     print("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")

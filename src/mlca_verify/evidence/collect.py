@@ -8,12 +8,10 @@ one timestamp is `generated_at`, which SOURCE_DATE_EPOCH fixes too.
 from __future__ import annotations
 
 import hashlib
-import sqlite3
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-from urllib.parse import quote
 
 import z3
 
@@ -21,16 +19,17 @@ from mlca_verify import __version__
 from mlca_verify.codegen import machine_ir
 from mlca_verify.codegen.render import TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
-from mlca_verify.conform.checks import Outcome
-from mlca_verify.conform.tools import run
+from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.diagram import to_dot
-from mlca_verify.errors import ToolError, UsageError
+from mlca_verify.errors import ToolError
 from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine, show
 from mlca_verify.report import cube_text
 from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.targets import FILES, Layout
+from mlca_verify.tools import run
 
 TOOL_VERSIONS = {
     "gcc": ["gcc", "--version"],
@@ -61,16 +60,32 @@ def tool_versions() -> dict[str, str]:
     return versions
 
 
+@dataclass(frozen=True)
+class ClosedLoopRuns:
+    """The closed-loop runs of one machine's generated controllers (see `loop_controllers`) in a results
+    database written by `mlca-sim`, as its API counts them: the evidence takes them as data."""
+
+    db: Path
+    runs: int
+    failed_runs: int
+    monitor_violations: int
+
+
+def loop_controllers(spec: LoadedSpec) -> tuple[str, str]:
+    """The mlca-sim controllers that drive with the code generated from `spec`: its Python and its C."""
+    module = spec.machine.name.lower()
+    return f"{module}-py", f"{module}-c"
+
+
 @dataclass
 class Evidence:
     spec: LoadedSpec
     results: list[Result]
-    outcomes: list[Outcome]
+    outcomes: list[CheckOutcome]
     generated: Path
     readings: list[LoadedSpec]
     generated_at: str
-    db: Path | None = None
-    loop: dict[str, Any] = field(default_factory=dict)  # closed_loop() of `db`, read once
+    loop: dict[str, Any] = field(default_factory=dict)  # closed_loop() of the runs given, read once
     data: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -79,13 +94,16 @@ class Evidence:
         return all(r.ok for r in self.results) and all(o.ok for o in self.outcomes) and loop_ok
 
 
-def collect(spec_path: str, readings: list[str], generated: Path, db: Path | None, generated_at: str) -> Evidence:
-    spec = load_spec(spec_path)
+def collect(
+    spec: LoadedSpec, readings: list[str], generated: Path, runs: ClosedLoopRuns | None, generated_at: str
+) -> Evidence:
+    """Prove, check conformance and assemble the evidence for `spec`, with its closed-loop `runs` (None: no
+    results database given) read beforehand."""
     loaded_readings = [load_spec(p, compare=False) for p in readings]
-    loop = closed_loop(db, spec.machine.name.lower())  # every input read before the long work starts
+    loop = closed_loop(runs, spec.machine.name.lower())  # every input read before the long work starts
     results = check_all(spec.machine)
     outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
-    ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, db)
+    ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at)
     ev.loop = loop
     ev.data = document(ev)
     return ev
@@ -136,41 +154,32 @@ def inputs(ev: Evidence) -> list[dict[str, str]]:
     ]
 
 
-GENERATED_KINDS = {"python": "python/{module}_fsm.py", "c-header": "c/{module}_fsm.h", "c-source": "c/{module}_fsm.c"}
-
-
 def generated_files(ev: Evidence) -> dict[str, Path]:
-    module = machine_ir(ev.spec, ev.generated).module
-    return {kind: ev.generated / pattern.format(module=module) for kind, pattern in GENERATED_KINDS.items()}
+    layout = Layout(ev.generated, machine_ir(ev.spec, ev.generated).module)
+    return {kind: ev.generated / layout.relative(kind) for kind in FILES}
 
 
 def artifacts(ev: Evidence) -> list[dict[str, str]]:
     return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generated_files(ev).items()]
 
 
-def closed_loop(db: Path | None, module: str) -> dict[str, Any]:
-    """Monitor results of this machine's closed-loop runs (controllers `<module>-py` and `<module>-c`) from a
-    results database written by `mlca-sim`."""
-    if db is None:
+def closed_loop(runs: ClosedLoopRuns | None, module: str) -> dict[str, Any]:
+    """The closed-loop section: monitor results of this machine's runs, and the hash of the database they are
+    from."""
+    if runs is None:
         return {"status": "undeveloped", "detail": "no results database given (--db)"}
-    query = (
-        "SELECT COUNT(*), COALESCE(SUM(monitor_violations), 0), COALESCE(SUM(status != 'done'), 0) FROM runs "
-        "WHERE controller IN (?, ?)"
+    ok = runs.runs and runs.monitor_violations == 0 and runs.failed_runs == 0
+    detail = (
+        f"{runs.runs} closed-loop runs of {module}, {runs.failed_runs} failed, {runs.monitor_violations} monitor "
+        "violations"
     )
-    try:
-        with sqlite3.connect(f"file:{quote(str(db))}?mode=ro", uri=True) as conn:
-            runs, violations, failed = conn.execute(query, (f"{module}-py", f"{module}-c")).fetchone()
-    except sqlite3.Error as err:
-        raise UsageError(f"{db}: error: not a results database written by mlca-sim ({err})") from None
-    status = "ok" if runs and violations == 0 and failed == 0 else "failed"
-    detail = f"{runs} closed-loop runs of {module}, {failed} failed, {violations} monitor violations"
     return {
-        "status": status,
-        "db": db.as_posix(),
-        "sha256": sha256(db),
-        "runs": runs,
-        "failed_runs": failed,
-        "monitor_violations": violations,
+        "status": "ok" if ok else "failed",
+        "db": runs.db.as_posix(),
+        "sha256": sha256(runs.db),
+        "runs": runs.runs,
+        "failed_runs": runs.failed_runs,
+        "monitor_violations": runs.monitor_violations,
         "detail": detail,
     }
 
