@@ -78,13 +78,13 @@ class Scene:
 
 
 @dataclass(frozen=True)
-class Verdict:
+class MobilDecision:
     safe: bool
     incentive: float  # the left-hand side of the incentive criterion, m/s²
     change: bool
 
 
-def evaluate(scene: Scene, side: int, idm: Idm, follower_idm: Idm, mobil: Mobil = Mobil()) -> Verdict:
+def evaluate(scene: Scene, side: int, idm: Idm, follower_idm: Idm, mobil: Mobil = Mobil()) -> MobilDecision:
     """MOBIL's criteria for a change to `side` (+1 left, -1 right)."""
     s = scene
     a_c = idm.accel(s.v, s.leader.gap, s.leader.v)
@@ -104,7 +104,7 @@ def evaluate(scene: Scene, side: int, idm: Idm, follower_idm: Idm, mobil: Mobil 
     safe = n.gap >= 0.0 and s.new_leader.gap >= 0.0 and a_n_new >= -mobil.b_safe
     incentive = a_c_new - a_c + mobil.p * ((a_n_new - a_n) + (a_o_new - a_o))
     threshold = mobil.a_thr + (mobil.bias if side > 0 else -mobil.bias)
-    return Verdict(safe, incentive, safe and incentive > threshold)
+    return MobilDecision(safe, incentive, safe and incentive > threshold)
 
 
 def _nearest(pairs: Any, speed: Any) -> Car:

@@ -35,7 +35,7 @@ CLAIM_RADIUS_M = 30.0
 
 
 @dataclass(frozen=True, slots=True)
-class Claim:
+class LaneClaim:
     """A V2V message: an AV intends to move into `lane` of `edge` around position `pos`."""
 
     av: str
@@ -97,7 +97,7 @@ def _gap_ok(read: Reads, av: str, side: int, v: float) -> bool:
     return True
 
 
-def _claimed(claims: list[Claim], av: str, edge: str, lane: int, pos: float) -> bool:
+def _claimed(claims: list[LaneClaim], av: str, edge: str, lane: int, pos: float) -> bool:
     return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
 
 
@@ -108,7 +108,7 @@ def sense(
     where: tuple[str, int, float],
     *,
     target: int,
-    claims: list[Claim],
+    claims: list[LaneClaim],
     leader: Leader,
     speed: float,
 ) -> tuple[dict[str, bool], int] | None:

@@ -66,36 +66,38 @@ def mann_whitney_less(subject: Sequence[float], baseline: Sequence[float]) -> Te
 
 
 @dataclass(frozen=True)
-class Verdict:
+class ClaimVerdict:
     verdict: str  # reproduced, not reproduced, not comparable
     measured: str
     test: str
 
 
-def reduction_verdict(subject: Sequence[float], baseline: Sequence[float], claimed: float) -> Verdict:
+def reduction_verdict(subject: Sequence[float], baseline: Sequence[float], claimed: float) -> ClaimVerdict:
     """Reproduced when the 95% interval of the measured reduction holds the claimed one and the one-sided
     Mann-Whitney test finds the subject smaller (p < 0.05); not comparable when the baseline never has the event."""
     if not len(subject) or not len(baseline):
-        return Verdict("not comparable", "no runs to compare", "")
+        return ClaimVerdict("not comparable", "no runs to compare", "")
     r, lo, hi = reduction_ci(subject, baseline)
     t = mann_whitney_less(subject, baseline)
     test = f"Mann-Whitney U = {t.u:.0f}, one-sided p = {_p(t.p)}, rank-biserial r = {t.effect:+.2f}"
     if math.isnan(r):
         mean_s = float(np.mean(subject))
-        return Verdict("not comparable", f"baseline mean 0 (subject mean {mean_s:.2f}): no reduction is defined", test)
+        return ClaimVerdict(
+            "not comparable", f"baseline mean 0 (subject mean {mean_s:.2f}): no reduction is defined", test
+        )
     measured = f"{r:+.0%} [{lo:+.0%}, {hi:+.0%}]"
     if lo <= claimed <= hi and t.p < ALPHA:
-        return Verdict("reproduced", measured, test)
-    return Verdict("not reproduced", measured, test)
+        return ClaimVerdict("reproduced", measured, test)
+    return ClaimVerdict("not reproduced", measured, test)
 
 
-def extreme_verdict(subject: str, groups: Mapping[str, Sequence[float]], lowest: bool) -> Verdict:
+def extreme_verdict(subject: str, groups: Mapping[str, Sequence[float]], lowest: bool) -> ClaimVerdict:
     """Reproduced when the subject's mean is the lowest (highest), shared with no other group, and no other
     group's is significantly lower (higher) by a one-sided Mann-Whitney test; not comparable when every group's
     mean is zero. A tie for first place does not make the subject the lowest (highest)."""
     means = {name: float(np.mean(v)) for name, v in groups.items() if len(v)}
     if subject not in means or not any(means.values()):
-        return Verdict("not comparable", "no events in any group", "")
+        return ClaimVerdict("not comparable", "no events in any group", "")
     sign = 1.0 if lowest else -1.0
     order = sorted(means, key=lambda n: (sign * means[n], n != subject, n))
     ties = sorted(n for n in means if n != subject and means[n] == means[subject])
@@ -115,10 +117,10 @@ def extreme_verdict(subject: str, groups: Mapping[str, Sequence[float]], lowest:
     worst_p = min(rivals)[0] if rivals else float("nan")
     test = f"one-sided Mann-Whitney against each other controller: smallest p = {_p(worst_p)}"
     if rank == 1 and not beaten and not ties:
-        return Verdict("reproduced", measured, test)
+        return ClaimVerdict("reproduced", measured, test)
     if beaten:
         measured += f"; significantly {'lower' if lowest else 'higher'}: {', '.join(sorted(beaten))}"
-    return Verdict("not reproduced", measured, test)
+    return ClaimVerdict("not reproduced", measured, test)
 
 
 def _p(p: float) -> str:

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from mlca_verify.escape import terminal
-from mlca_verify.logic.equiv import Comparison, Region
+from mlca_verify.logic.equiv import EquivalenceResult, Region
 from mlca_verify.logic.results import Counterexample, Outcome, Result
 from mlca_verify.regress import TransitionChange, VerdictChange
 
@@ -139,7 +139,7 @@ def regression_text(changes: Sequence[VerdictChange], transitions: Sequence[Tran
     return "\n".join(parts)
 
 
-def diff_text(left: str, right: str, comparison: Comparison, inputs: Sequence[str]) -> str:
+def diff_text(left: str, right: str, comparison: EquivalenceResult, inputs: Sequence[str]) -> str:
     if comparison.verdict == "holds":
         return f"{left} and {right} are equivalent: {comparison.detail}"
     if comparison.verdict == "unknown":

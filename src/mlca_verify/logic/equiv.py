@@ -34,7 +34,7 @@ class Region:
 
 
 @dataclass
-class Comparison:
+class EquivalenceResult:
     verdict: Verdict
     counterexample: Counterexample | None = None
     regions: list[Region] = field(default_factory=list)
@@ -67,10 +67,10 @@ class Comparator:
     def both(self, state: str, target: str) -> z3.BoolRef:
         return z3.And(self.enc_l.can_go(state, target), self.enc_r.can_go(state, target))
 
-    def run(self, all_regions: bool = False) -> Comparison:
+    def run(self, all_regions: bool = False) -> EquivalenceResult:
         if self.left.initial != self.right.initial:
             detail = f"initial states differ: {self.left.initial} vs {self.right.initial}"
-            return Comparison("violated", Counterexample(()), detail=detail)
+            return EquivalenceResult("violated", Counterexample(()), detail=detail)
         first: Counterexample | None = None
         regions: list[Region] = []
         for state in self.common_states():
@@ -83,9 +83,9 @@ class Comparator:
             regions.extend(self.regions(state))
         if first is not None:
             detail = f"they first differ in {first.steps[-1].state} after {len(first.steps) - 1} common steps"
-            return Comparison("violated", first, regions, detail)
+            return EquivalenceResult("violated", first, regions, detail)
         verdict: Verdict = "unknown" if self.unknown else "holds"
-        return Comparison(verdict, detail=f"same behaviour in all {len(self.order)} states both reach")
+        return EquivalenceResult(verdict, detail=f"same behaviour in all {len(self.order)} states both reach")
 
     def common_states(self) -> list[str]:
         """States both machines reach by the same sequence of states, breadth-first."""
@@ -164,6 +164,6 @@ class Comparator:
 
 def compare(
     left: Machine, right: Machine, timeout_ms: int = DEFAULT_TIMEOUT_MS, all_regions: bool = False
-) -> Comparison:
+) -> EquivalenceResult:
     """Are `left` and `right` equivalent? With `all_regions`, list every difference, not only the first."""
     return Comparator(left, right, timeout_ms).run(all_regions)

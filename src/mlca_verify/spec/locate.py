@@ -14,7 +14,7 @@ from collections import Counter
 from mlca_verify.errors import Loc
 
 PathPart = str | int
-Path = tuple[PathPart, ...]
+KeyPath = tuple[PathPart, ...]
 
 _ARRAY_HEADER = re.compile(r"^\s*\[\[\s*(?P<name>[^\]]+?)\s*\]\]")
 _TABLE_HEADER = re.compile(r"^\s*\[\s*(?P<name>[^\]]+?)\s*\]")
@@ -38,12 +38,12 @@ class Locator:
     def __init__(self, file: str, text: str) -> None:
         self.file = file
         self.lines = text.splitlines()
-        self.values: dict[Path, tuple[int, int]] = {}
-        self.keys: dict[Path, tuple[int, int]] = {}
+        self.values: dict[KeyPath, tuple[int, int]] = {}
+        self.keys: dict[KeyPath, tuple[int, int]] = {}
         self._scan()
 
     def _scan(self) -> None:
-        table: Path = ()
+        table: KeyPath = ()
         counts: Counter[tuple[str, ...]] = Counter()
         for lineno, line in enumerate(self.lines, start=1):
             if m := _ARRAY_HEADER.match(line):
@@ -61,26 +61,26 @@ class Locator:
                 self.keys[path] = (lineno, m.start("key") + 1)
                 self._scan_inline(path, line, m.end(), lineno)
 
-    def _scan_inline(self, path: Path, line: str, start: int, lineno: int) -> None:
+    def _scan_inline(self, path: KeyPath, line: str, start: int, lineno: int) -> None:
         if not line[start:].lstrip().startswith("{"):
             return
         for m in _INLINE_KEY.finditer(line, start):
             self.values[(*path, _unquote(m.group("key")))] = (lineno, m.end() + 1)
             self.keys[(*path, _unquote(m.group("key")))] = (lineno, m.start("key") + 1)
 
-    def loc(self, path: Path) -> Loc:
+    def loc(self, path: KeyPath) -> Loc:
         """The value at `path`, or the closest enclosing key or table that was found."""
         for cut in range(len(path), 0, -1):
             if (found := self.values.get(path[:cut])) is not None:
                 return Loc(self.file, *found)
         return Loc(self.file, 1, 1)
 
-    def key_loc(self, path: Path) -> Loc:
+    def key_loc(self, path: KeyPath) -> Loc:
         """The key itself at `path` (where a name given as a key is wrong), else as `loc`."""
         found = self.keys.get(path)
         return Loc(self.file, *found) if found else self.loc(path)
 
-    def string_loc(self, path: Path, offset: int) -> Loc:
+    def string_loc(self, path: KeyPath, offset: int) -> Loc:
         """The position of character `offset` inside the one-line string value at `path`."""
         base = self.loc(path)
         if path not in self.values:
@@ -91,7 +91,7 @@ class Locator:
             return base
         return Loc(self.file, base.line, base.col + 1 + offset)
 
-    def element_loc(self, path: Path, element: str, occurrence: int = 0) -> Loc:
+    def element_loc(self, path: KeyPath, element: str, occurrence: int = 0) -> Loc:
         """The position of the `occurrence`-th quoted `element` in the array value at `path`."""
         base = self.loc(path)
         pattern = re.compile(r"[\"']" + re.escape(element) + r"[\"']")

@@ -20,7 +20,7 @@ from mlca_verify.model import (
     Verdict,
 )
 from mlca_verify.spec.expr_parser import ParseError, parse_expr
-from mlca_verify.spec.locate import Locator, Path
+from mlca_verify.spec.locate import KeyPath, Locator
 from mlca_verify.spec.names import (
     IDENTIFIER,
     MACHINE_NAME_LIMIT,
@@ -58,12 +58,12 @@ class MeaningChecker:
         self.states: tuple[str, ...] = ()
         self.input_names: frozenset[str] = frozenset()
 
-    def fail(self, path: Path, message: str) -> SpecError:
+    def fail(self, path: KeyPath, message: str) -> SpecError:
         return SpecError(self.where.loc(path), message)
 
     # --- names ---------------------------------------------------------------------------------------
 
-    def identifier(self, path: Path, name: str, what: str, loc: Loc | None = None) -> None:
+    def identifier(self, path: KeyPath, name: str, what: str, loc: Loc | None = None) -> None:
         def error(message: str) -> SpecError:
             return SpecError(loc or self.where.loc(path), message)
 
@@ -75,7 +75,7 @@ class MeaningChecker:
         if (found := clash(name, what.split(maxsplit=1)[0], self.doc["machine"]["name"])) is not None:
             raise error(f"{what} '{name}' {found}")
 
-    def distinct(self, path: Path, names: Iterable[tuple[str, Loc]], what: str) -> None:
+    def distinct(self, path: KeyPath, names: Iterable[tuple[str, Loc]], what: str) -> None:
         seen: dict[str, str] = {}
         for name, loc in names:
             key = c_form(name).lower()
@@ -88,7 +88,7 @@ class MeaningChecker:
                 )
             seen[key] = name
 
-    def bounded(self, path: Path, count: int, limit: int, what: str) -> None:
+    def bounded(self, path: KeyPath, count: int, limit: int, what: str) -> None:
         if count > limit:
             raise self.fail(path, f"{count} {what}: at most {limit} are supported")
 
@@ -137,7 +137,7 @@ class MeaningChecker:
             loc=self.where.loc(("machine",)),
         )
 
-    def choice(self, path: Path, value: str, allowed: tuple[str, ...]) -> str:
+    def choice(self, path: KeyPath, value: str, allowed: tuple[str, ...]) -> str:
         if value not in allowed:
             raise self.fail(path, f"'{path[-1]}' must be one of {', '.join(allowed)}, got {_quoted(value)}")
         return value
@@ -157,7 +157,7 @@ class MeaningChecker:
 
     # --- expressions ---------------------------------------------------------------------------------
 
-    def expr(self, path: Path, text: str, allow_state: bool, role: str) -> Expr:
+    def expr(self, path: KeyPath, text: str, allow_state: bool, role: str) -> Expr:
         try:
             expr, refs = parse_expr(text)
         except ParseError as err:
@@ -184,7 +184,7 @@ class MeaningChecker:
     def transitions(self) -> tuple[Transition, ...]:
         result: list[Transition] = []
         for index, item in enumerate(self.doc.get("transition", [])):
-            path: Path = ("transition", index)
+            path: KeyPath = ("transition", index)
             tid = item.get("id", f"t{index + 1}")
             self.property_id((*path, "id"), tid, "transition id")
             result.append(
@@ -201,7 +201,7 @@ class MeaningChecker:
         self.distinct(("transition",), [(t.id, t.loc) for t in result], "transition id")
         return tuple(result)
 
-    def sources(self, path: Path, value: str | list[str]) -> tuple[str, ...] | None:
+    def sources(self, path: KeyPath, value: str | list[str]) -> tuple[str, ...] | None:
         if value == ANY_STATE:
             return None
         names = [value] if isinstance(value, str) else value
@@ -209,12 +209,12 @@ class MeaningChecker:
             raise self.fail(path, "'from' must name at least one state, or be \"*\"")
         return tuple(self.state_ref(path, n, "source state") for n in names)
 
-    def state_ref(self, path: Path, name: str, what: str) -> str:
+    def state_ref(self, path: KeyPath, name: str, what: str) -> str:
         if name not in self.states:
             raise self.fail(path, f"unknown {what} {_quoted(name)} (states: {', '.join(self.states)})")
         return name
 
-    def property_id(self, path: Path, pid: str, what: str) -> None:
+    def property_id(self, path: KeyPath, pid: str, what: str) -> None:
         if not PROPERTY_ID.fullmatch(pid):
             raise self.fail(
                 path, f"{what} {_quoted(pid)} must start with a letter and use letters, digits, '_', '-', '.'"
@@ -226,13 +226,13 @@ class MeaningChecker:
         if "__" in c_form(pid):
             raise self.fail(path, f"{what} '{pid}' clashes with generated names, which join parts with '__'")
 
-    def verdict(self, path: Path, item: dict[str, Any]) -> Verdict:
+    def verdict(self, path: KeyPath, item: dict[str, Any]) -> Verdict:
         return cast(Verdict, self.choice((*path, "expect"), item.get("expect", "holds"), VERDICTS))
 
     def invariants(self) -> tuple[Invariant, ...]:
         result = []
         for index, item in enumerate(self.doc.get("invariant", [])):
-            path: Path = ("invariant", index)
+            path: KeyPath = ("invariant", index)
             self.property_id((*path, "id"), item["id"], "invariant id")
             expr = self.expr((*path, "expr"), item["expr"], allow_state=True, role="invariant")
             loc = self.where.loc(path)
@@ -242,7 +242,7 @@ class MeaningChecker:
     def liveness_list(self) -> tuple[Liveness, ...]:
         result = []
         for index, item in enumerate(self.doc.get("liveness", [])):
-            path: Path = ("liveness", index)
+            path: KeyPath = ("liveness", index)
             self.property_id((*path, "id"), item["id"], "liveness id")
             within = item.get("within")
             if within is not None and not 1 <= within <= WITHIN_LIMIT:
@@ -270,7 +270,7 @@ class MeaningChecker:
     def comparisons(self) -> tuple[Comparison, ...]:
         result = []
         for index, item in enumerate(self.doc.get("compare", [])):
-            path: Path = ("compare", index)
+            path: KeyPath = ("compare", index)
             if self.load_other is None:
                 continue
             other = self.load_other(item["with"], self.where.loc((*path, "with")))
@@ -281,7 +281,7 @@ class MeaningChecker:
         known = set(BUILTIN_PROPERTIES) | {f"reach:{s}" for s in self.states} | {f"fires:{t.id}" for t in transitions}
         table: dict[str, Verdict] = {}
         for key, value in self.doc.get("expect", {}).items():
-            path: Path = ("expect", key)
+            path: KeyPath = ("expect", key)
             if key not in known:
                 hint = "determinism, completeness, reach:<state>, fires:<transition id>"
                 raise self.fail(path, f"unknown built-in check {_quoted(key)} in [expect] (one of {hint})")

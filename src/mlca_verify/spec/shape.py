@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from mlca_verify.errors import SpecError
-from mlca_verify.spec.locate import Locator, Path
+from mlca_verify.spec.locate import KeyPath, Locator
 from mlca_verify.spec.names import MAX_ELEMENTS
 
 
@@ -93,7 +93,7 @@ class ShapeChecker:
         self.doc = doc
         self.where = where
 
-    def fail(self, path: Path, message: str) -> SpecError:
+    def fail(self, path: KeyPath, message: str) -> SpecError:
         return SpecError(self.where.loc(path), message)
 
     def check(self) -> None:
@@ -108,7 +108,7 @@ class ShapeChecker:
             self.array(name, self.doc.get(name, []), fields)
         self.expect_table(self.doc.get("expect", {}))
 
-    def table(self, path: Path, value: object, fields: Mapping[str, Field], label: str) -> None:
+    def table(self, path: KeyPath, value: object, fields: Mapping[str, Field], label: str) -> None:
         if not isinstance(value, dict):
             raise self.fail(path, f"{label} must be a table, got {_type_name(value)}")
         for key in value:
