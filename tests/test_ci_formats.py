@@ -13,24 +13,23 @@ import pytest
 from junitparser import Failure, JUnitXml
 
 from mlca_verify.cli import main
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 SCHEMAS = Path(__file__).parent / "schemas"
 SPECS = ["spec/mlca.toml", "spec/mlca_r.toml", "spec/paper/figure.toml", "spec/paper/prose.toml"]
 
 
-@pytest.fixture(autouse=True)
-def _at_root(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)
+pytestmark = pytest.mark.usefixtures("at_root")
 
 
 @pytest.fixture(scope="module")
 def outputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     folder = tmp_path_factory.mktemp("ci")
     files = {"json": folder / "check.json", "junit": folder / "check.xml", "sarif": folder / "check.sarif"}
-    os.chdir(ROOT)
-    argv = ["check", *SPECS, "--quiet", "--json", str(files["json"]), "--junit", str(files["junit"])]
-    assert main([*argv, "--sarif", str(files["sarif"])]) == 0
+    with pytest.MonkeyPatch.context() as mp:  # a module's fixture runs before at_root: its own chdir, undone
+        mp.chdir(ROOT)
+        argv = ["check", *SPECS, "--quiet", "--json", str(files["json"]), "--junit", str(files["junit"])]
+        assert main([*argv, "--sarif", str(files["sarif"])]) == 0
     return files
 
 

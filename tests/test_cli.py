@@ -11,15 +11,13 @@ import pytest
 
 from mlca_verify import cli
 from mlca_verify.cli import main
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 SHIPPED = ["spec/mlca.toml", "spec/mlca_r.toml", "spec/paper/figure.toml", "spec/paper/prose.toml"]
 KINDS = {"determinism", "completeness", "reachability", "dead-transition", "invariant", "liveness", "equivalence"}
 
 
-@pytest.fixture(autouse=True)
-def _at_root(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)
+pytestmark = pytest.mark.usefixtures("at_root")
 
 
 def test_check_shipped_specs_writes_every_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -53,16 +51,14 @@ def test_check_shipped_specs_writes_every_result(tmp_path: Path, capsys: pytest.
     assert "all as expected" in text and "repeat forever" in text
 
 
-def test_json_counts_every_declared_property() -> None:
+def test_json_counts_every_declared_property(tmp_path: Path) -> None:
     from mlca_verify.spec import load_spec
 
     machine = load_spec(ROOT / "spec/mlca.toml").machine
     expected = 2 + len(machine.states) + len(machine.transitions) + len(machine.invariants) + len(machine.liveness)
-    out = ROOT / "out" / "test_cli_count.json"
-    out.parent.mkdir(exist_ok=True)
+    out = tmp_path / "count.json"
     assert main(["check", "spec/mlca.toml", "--json", str(out), "--quiet"]) == 0
     assert len(json.loads(out.read_text())["specs"][0]["results"]) == expected
-    out.unlink()
 
 
 def test_unexpected_verdict_exits_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -6,20 +6,20 @@ from __future__ import annotations
 import re
 import sqlite3
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from sim_check.cli import main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
+from sim_check.db import ResultsDB
 from sim_check.paper_results import CLAIMS, LANE_FIGURES, MARKS
 from sim_check.reads import Reads
 from sim_check.report import label, write_report
 from sim_check.runner import run_once, sumo_args
 from sim_check.scenario import build, load_scenario
 from sim_check.sensing import _gap_ok
-
-ROOT = Path(__file__).parent.parent
-SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
+from tests.sim_helpers import SHORT
 
 
 def _scene(tmp_path: Path, cars: list[tuple[str, int, float]]) -> Path:
@@ -65,29 +65,38 @@ def matrix_db(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return db
 
 
-def _query(db: Path, sql: str) -> list[tuple[object, ...]]:
-    with sqlite3.connect(db) as conn:
-        return conn.execute(sql).fetchall()
+def _records(db: Path, table: str) -> list[dict[str, Any]]:
+    """The rows of `table`, each as {column: value}, read through the results database's API."""
+    with ResultsDB.open_for_reading(db) as results:
+        rows = results.table_rows(table)
+    return [dict(zip(rows.columns, row, strict=True)) for row in rows.rows]
+
+
+def _where(db: Path, table: str, controller: str, avs: int) -> list[dict[str, Any]]:
+    return [r for r in _records(db, table) if r["controller"] == controller and r["avs"] == avs]
 
 
 @pytest.mark.slow
 def test_every_controller_of_the_paper_drives_the_short_scenario(matrix_db: Path) -> None:
-    runs = _query(matrix_db, "SELECT controller, avs, COUNT(*), SUM(status = 'done'), SUM(monitor_violations) "
-                             "FROM runs GROUP BY controller, avs")  # fmt: skip
-    assert sorted(runs) == sorted((c, a, 2, 2, 0) for c in PAPER_MATRIX for a in (1, 3))
+    runs = _records(matrix_db, "runs")
+    groups = {(r["controller"], r["avs"]) for r in runs}
+    assert sorted(groups) == sorted((c, a) for c in PAPER_MATRIX for a in (1, 3))
+    for controller, avs in groups:
+        group = _where(matrix_db, "runs", controller, avs)
+        assert [(r["status"], r["monitor_violations"]) for r in group] == [("done", 0)] * 2
     # every AV left the ramp (its acceleration lane ends, so at least one lane change) and arrived
-    avs = _query(
-        matrix_db, "SELECT controller, MIN(lc_5km), MIN(arrived), COUNT(*) FROM av_metrics GROUP BY controller"
-    )
-    assert sorted(c for c, *_ in avs) == sorted(PAPER_MATRIX)
-    assert all(changes >= 1 and arrived == 1 and count == 2 * (1 + 3) for _, changes, arrived, count in avs)
+    metrics = _records(matrix_db, "av_metrics")
+    assert sorted({m["controller"] for m in metrics}) == sorted(PAPER_MATRIX)
+    for controller in PAPER_MATRIX:
+        mine = [m for m in metrics if m["controller"] == controller]
+        assert len(mine) == 2 * (1 + 3) and all(m["lc_5km"] >= 1 and m["arrived"] == 1 for m in mine)
     # the mechanism is recorded for the machines and "without", not for the models that do not sense
-    sensed = _query(matrix_db, "SELECT DISTINCT controller FROM av_metrics WHERE needs IS NOT NULL")
-    assert sorted(c for (c,) in sensed) == sorted(c for c in PAPER_MATRIX if SETUPS[c].kind in ("fsm", "without"))
+    sensed = {m["controller"] for m in metrics if m["needs"] is not None}
+    assert sorted(sensed) == sorted(c for c in PAPER_MATRIX if SETUPS[c].kind in ("fsm", "without"))
     # each controller drove differently from SUMO's default model on at least one run
-    shas = dict(_query(matrix_db, "SELECT controller, GROUP_CONCAT(trajectory_sha256) FROM "
-                                  "(SELECT * FROM runs ORDER BY avs, seed) GROUP BY controller"))  # fmt: skip
-    assert len(set(shas.values())) == len(PAPER_MATRIX)
+    shas = {c: [r["trajectory_sha256"] for r in sorted(runs, key=lambda r: (r["avs"], r["seed"])) if r["controller"] == c]
+            for c in PAPER_MATRIX}  # fmt: skip
+    assert len({tuple(v) for v in shas.values()}) == len(PAPER_MATRIX)
 
 
 def _table(report: str, heading: str) -> list[list[str]]:
@@ -113,23 +122,19 @@ def test_report_tables_match_the_database(matrix_db: Path, tmp_path: Path) -> No
     for heading in ("Lane changes: LC2017", "Lane changes: IDM/LC", "Lane changes: MLCA"):
         for name, avs, km, _paper, measured, runs in _table(report, heading):
             mean = float(measured.split()[0])
-            (expected,) = _query(matrix_db, f"SELECT AVG(s) FROM (SELECT SUM(m.lc_{km}km) AS s FROM av_metrics m "
-                                            f"WHERE m.controller = '{by_label[name]}' AND m.avs = {avs} "
-                                            "GROUP BY m.seed)")[0]  # fmt: skip
-            assert mean == pytest.approx(expected, abs=0.005) and runs == "2"
+            group = _where(matrix_db, "av_metrics", by_label[name], int(avs))
+            per_seed = [sum(m[f"lc_{km}km"] for m in group if m["seed"] == seed) for seed in {m["seed"] for m in group}]
+            assert mean == pytest.approx(sum(per_seed) / len(per_seed), abs=0.005) and runs == "2"
             checked += 1
     assert checked == len(MARKS) * 2 * sum(len(f.series) + len(f.extra) for f in LANE_FIGURES)
     for name, avs, _paper, contact, mingap, _runs in _table(report, "Collisions"):
-        controller = by_label[name]
-        (coll, close) = _query(matrix_db, f"SELECT 100.0 * SUM(collisions) / 2, 100.0 * SUM(mingap_contacts) / 2 "
-                                          f"FROM av_metrics WHERE controller = '{controller}' AND avs = {avs}")[0]  # fmt: skip
-        assert float(contact.split()[0]) == pytest.approx(coll, abs=0.05)
-        assert float(mingap.split()[0]) == pytest.approx(close, abs=0.05)
+        group = _where(matrix_db, "av_metrics", by_label[name], int(avs))
+        assert float(contact.split()[0]) == pytest.approx(100.0 * sum(m["collisions"] for m in group) / 2, abs=0.05)
+        assert float(mingap.split()[0]) == pytest.approx(100.0 * sum(m["mingap_contacts"] for m in group) / 2, abs=0.05)
     for name, avs, av_runs, episodes, _moved, _deferred, never, *_ in _table(report, "Mechanism"):
-        controller = by_label[name]
-        (n, needs, still) = _query(matrix_db, "SELECT COUNT(*), SUM(needs), SUM(needs_open) FROM av_metrics "
-                                              f"WHERE controller = '{controller}' AND avs = {avs}")[0]  # fmt: skip
-        assert (int(av_runs), int(episodes), int(never.split()[0])) == (n, needs, still)
+        group = _where(matrix_db, "av_metrics", by_label[name], int(avs))
+        expected = (len(group), sum(m["needs"] for m in group), sum(m["needs_open"] for m in group))
+        assert (int(av_runs), int(episodes), int(never.split()[0])) == expected
     claims = _table(report, "Claims")
     assert len(claims) == sum(len(c.avs) if c.kind == "reduction" and c.metric == "lc" else 1 for c in CLAIMS)
     assert all(re.fullmatch(r"\*\*(reproduced|not reproduced|not comparable)\*\*", row[3]) for row in claims)

@@ -13,8 +13,8 @@ from mlca_verify.cli import main
 from mlca_verify.diagram import render
 from mlca_verify.spec import load_spec
 from tests.bruteforce import Explicit
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 REPLAY = ROOT / "tools" / "scxml" / "replay.js"
 DETERMINISTIC = ["spec/mlca.toml", "spec/mlca_r.toml", "tests/corpus/counter.toml", "tests/corpus/shadowed.toml"]
 

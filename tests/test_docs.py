@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from scripts.refresh_docs import BLOCK, DOCS, ROOT, run
+from scripts.refresh_docs import BLOCK, DOCS, run
 from sim_check import db
 from sim_check.report import write_report
+from tests.conftest import ROOT
 
 BLOCKS = [
     (doc.name, m.group("args"), m.group("body"))
@@ -25,8 +26,8 @@ def test_docs_have_command_blocks() -> None:
 
 
 @pytest.mark.parametrize(("doc", "args", "body"), BLOCKS, ids=[f"{b[0]}: {b[1]}" for b in BLOCKS])
-def test_block_matches_output(doc: str, args: str, body: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)
+@pytest.mark.usefixtures("at_root")
+def test_block_matches_output(doc: str, args: str, body: str) -> None:
     assert run(args) == body, f"{doc} is stale: run .venv/bin/python scripts/refresh_docs.py"
 
 

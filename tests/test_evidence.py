@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import difflib
+import hashlib
 import json
+import re
 import sqlite3
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import jsonschema
@@ -12,8 +17,10 @@ import pytest
 from playwright.sync_api import sync_playwright
 
 from mlca_verify.cli import main
+from mlca_verify.evidence import ClosedLoopRuns
+from mlca_verify.evidence.collect import closed_loop
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
                  "--disable-sync", "--no-first-run", "--disable-quic"]  # fmt: skip
 
@@ -22,12 +29,11 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networki
 def bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """The same evidence built twice, at two different times."""
     out = tmp_path_factory.mktemp("evidence")
-    mp = pytest.MonkeyPatch()
-    mp.chdir(ROOT)
-    for name, epoch in (("a", "1764000000"), ("b", "1764003600")):
-        mp.setenv("SOURCE_DATE_EPOCH", epoch)
-        assert main(["evidence", "spec/mlca_r.toml", "--out", str(out / name)]) == 0
-    mp.undo()
+    with pytest.MonkeyPatch.context() as mp:  # undone even when a build fails
+        mp.chdir(ROOT)
+        for name, epoch in (("a", "1764000000"), ("b", "1764003600")):
+            mp.setenv("SOURCE_DATE_EPOCH", epoch)
+            assert main(["evidence", "spec/mlca_r.toml", "--out", str(out / name)]) == 0
     return out / "a", out / "b"
 
 
@@ -94,10 +100,10 @@ def test_page_loads_in_chromium_without_errors_and_every_link_resolves(bundles: 
 
 
 @pytest.mark.slow
-def test_results_database_develops_the_closed_loop_goal(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.chdir(ROOT)
+@pytest.mark.usefixtures("at_root")
+def test_results_database_develops_the_closed_loop_goal(tmp_path: Path) -> None:
     db = tmp_path / "results.sqlite"
-    with sqlite3.connect(db) as conn:
+    with sqlite3.connect(db) as conn:  # the least the evidence reads: a runs table with these columns
         conn.execute("CREATE TABLE runs (controller TEXT, seed INTEGER, status TEXT, monitor_violations INTEGER)")
         rows = [
             ("mlca-c", 0, "done", 0),
@@ -114,9 +120,55 @@ def test_results_database_develops_the_closed_loop_goal(tmp_path: Path, monkeypa
     assert g6["type"] == "goal" and g6["ok"] is False and doc["ok"] is False
 
 
-def test_bad_database_is_a_usage_error(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
-) -> None:
-    monkeypatch.chdir(ROOT)
+@pytest.mark.usefixtures("at_root")
+def test_bad_database_is_a_usage_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["evidence", "spec/mlca.toml", "--db", str(tmp_path / "none.sqlite"), "--out", str(tmp_path)]) == 2
     assert "results database not found" in capsys.readouterr().err
+
+
+@pytest.mark.usefixtures("at_root")
+def test_a_database_that_is_not_a_results_database_is_refused_before_the_proofs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = tmp_path / "notes.sqlite"
+    with sqlite3.connect(db) as conn:
+        conn.execute("CREATE TABLE notes (text TEXT)")
+    conn.close()
+    start = time.monotonic()
+    assert main(["evidence", "spec/mlca.toml", "--db", str(db), "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err == f"{db}: error: not a results database of mlca-sim\n"
+    assert time.monotonic() - start < 10 and not (tmp_path / "out" / "evidence.json").exists()
+
+
+@pytest.mark.usefixtures("at_root")
+def test_a_database_without_the_simulation_part_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    db = tmp_path / "results.sqlite"
+    db.write_bytes(b"")
+    monkeypatch.setitem(sys.modules, "sim_check.db", None)  # importing it fails, as without sim_check
+    assert main(["evidence", "spec/mlca.toml", "--db", str(db), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"{db}: error: --db needs the simulation part of mlca-verify") and err.count("\n") == 1
+
+
+def test_the_closed_loop_section_is_made_from_the_runs_given(tmp_path: Path) -> None:
+    db = tmp_path / "results.sqlite"
+    db.write_bytes(b"rows")
+    section = closed_loop(ClosedLoopRuns(db, runs=9, failed_runs=1, monitor_violations=0), "mlca")
+    assert json.dumps(section) == json.dumps({
+        "status": "failed", "db": db.as_posix(), "sha256": hashlib.sha256(b"rows").hexdigest(), "runs": 9,
+        "failed_runs": 1, "monitor_violations": 0, "detail": "9 closed-loop runs of mlca, 1 failed, 0 monitor violations",
+    })  # fmt: skip
+    assert closed_loop(ClosedLoopRuns(db, 2, 0, 0), "mlca")["status"] == "ok"
+    assert closed_loop(None, "mlca") == {"status": "undeveloped", "detail": "no results database given (--db)"}
+
+
+def test_mlca_verify_imports_no_sim_check_and_holds_no_sql() -> None:
+    code = (
+        "import sys, mlca_verify.cli, mlca_verify.evidence; print(sorted(m for m in sys.modules if 'sim_check' in m))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert done.stdout == "[]\n"
+    sources = (ROOT / "src" / "mlca_verify").rglob("*.py")
+    assert [p.name for p in sources if re.search(r"\bsqlite3\b|\bSELECT\b", p.read_text(encoding="utf-8"))] == []

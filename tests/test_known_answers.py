@@ -4,16 +4,14 @@ Every layer runs against it: the engine here, the brute-force explorer below, th
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from mlca_verify.logic import check_all
 from mlca_verify.logic.results import Result
 from mlca_verify.spec import load_spec
 from tests.bruteforce import Explicit
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 V, H = "violated", "holds"
 
 # spec, property, verdict, counterexample length (None: no trace), loop_start

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from mlca_verify.logic import check_all
 from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec
+from tests.conftest import ROOT
 
-ROOT = Path(__file__).parent.parent
 SHIPPED = sorted(str(p.relative_to(ROOT)) for p in ROOT.glob("spec/**/*.toml"))
 
 

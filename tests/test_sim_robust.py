@@ -15,17 +15,19 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from mlca_verify.errors import SpecError, UsageError
 from sim_check import db
 from sim_check.cli import main
-from sim_check.runner import AvMetrics, RunResult
+from sim_check.db import MonitorSummary, ResultsDB
+from sim_check.results import AvMetrics, RunResult, Violation
 from sim_check.scenario import load_scenario
+from tests.conftest import ROOT
+from tests.sim_helpers import SHORT
 
-ROOT = Path(__file__).parent.parent
-SHORT = ROOT / "sim_check" / "scenarios" / "short.toml"
 TINY = "[road]\nlength_m = 1000\n\n[traffic]\ncars = 5\ndepart_window_s = 10\nav_depart_s = 2\n"
 
 
@@ -36,15 +38,29 @@ def result(seed: int, status: str = "done", controller: str = "mlca-c") -> RunRe
 
 
 def count(path: Path, table: str) -> int:
-    """Rows in `table`; none while the file or the table does not exist yet."""
+    """Rows in `table`; none while the file or its tables do not exist yet."""
     if not path.exists():
         return 0
     try:
-        with sqlite3.connect(path) as conn:
-            n: int = conn.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
-    except sqlite3.OperationalError:
+        with ResultsDB.open_for_reading(path) as results:
+            return len(results.table_rows(table).rows)
+    except UsageError:
         return 0
-    return n
+
+
+def column(path: Path, table: str, name: str) -> list[Any]:
+    """The values of one column of `table`, in the table's order."""
+    with ResultsDB.open_for_reading(path) as results:
+        rows = results.table_rows(table)
+    k = rows.columns.index(name)
+    return [row[k] for row in rows.rows]
+
+
+def store(path: Path, *runs: RunResult) -> None:
+    """Store `runs` as a sweep does."""
+    with ResultsDB.open_for_writing(path) as results:
+        for run in runs:
+            assert results.store(run)
 
 
 def sha(path: Path) -> str:
@@ -70,10 +86,67 @@ def tiny(tmp_path: Path) -> Path:
 
 def test_a_run_stored_twice_is_stored_once_and_the_second_writer_is_told(tmp_path: Path) -> None:
     path = tmp_path / "r.sqlite"
-    first, second = db.connect(path), db.connect(path)
-    assert db.store(first, result(0)) is True
-    assert db.store(second, result(0)) is False  # no IntegrityError: the second writer skips it
+    with ResultsDB.open_for_writing(path) as first, ResultsDB.open_for_writing(path) as second:
+        assert first.store(result(0)) is True
+        assert second.store(result(0)) is False  # no IntegrityError: the second writer skips it
     assert (count(path, "runs"), count(path, "av_metrics")) == (1, 1)
+
+
+def test_a_results_database_is_closed_after_its_with_block(tmp_path: Path) -> None:
+    path = tmp_path / "r.sqlite"
+    with ResultsDB.open_for_writing(path) as results:
+        assert results.store(result(0)) and not results.closed
+    assert results.closed
+    with pytest.raises(UsageError, match=r"r\.sqlite: error: cannot read: Cannot operate on a closed database"):
+        results.stored_keys()
+    with pytest.raises(RuntimeError), ResultsDB.open_for_reading(path) as reading:
+        raise RuntimeError("a failure inside the block")
+    assert reading.closed
+
+
+def test_the_api_reads_what_was_stored(tmp_path: Path) -> None:
+    path = tmp_path / "r.sqlite"
+    violation = Violation("av0", 1.0, ["no_collision"], [])
+    runs = [result(0), result(1, "failed"), result(0, controller="mlca-py"), result(2, controller="lc2013")]
+    runs[2].violations.append(violation)
+    store(path, *runs)
+    with ResultsDB.open_for_reading(path) as results:
+        assert results.stored_keys() == {("mlca-c", 1, 0), ("mlca-c", 1, 1), ("mlca-py", 1, 0), ("lc2013", 1, 2)}
+        assert results.monitor_summary(["mlca-py", "mlca-c"]) == MonitorSummary(runs=3, failed_runs=1,
+                                                                                monitor_violations=1)  # fmt: skip
+        assert results.monitor_summary([]) == MonitorSummary(0, 0, 0)
+        rows = results.report_rows()
+    assert [(s.controller, s.status) for s in rows.statuses] == [("lc2013", "done"), ("mlca-c", "done"),
+                                                                 ("mlca-c", "failed"), ("mlca-py", "done")]  # fmt: skip
+    assert [(r.controller, r.seed, r.lane_changes) for r in rows.finished] == [
+        ("lc2013", 2, (0, 0, 0, 0)), ("mlca-c", 0, (0, 0, 0, 0)), ("mlca-py", 0, (0, 0, 0, 0))]  # fmt: skip
+
+
+def test_reading_refuses_a_file_that_is_not_a_results_database_untouched(tmp_path: Path) -> None:
+    path = tmp_path / "notes.sqlite"
+    _foreign(path)
+    before = sha(path)
+    with pytest.raises(UsageError, match=r"notes\.sqlite: error: not a results database of mlca-sim$"):
+        ResultsDB.open_for_reading(path)
+    assert sha(path) == before
+
+
+def test_a_sweep_opens_its_database_once_and_closes_it(
+    tmp_path: Path, tiny: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = tmp_path / "r.sqlite"
+    store(path, result(0))
+    opened: list[ResultsDB] = []
+    open_for_writing = ResultsDB.open_for_writing
+
+    def spy(db_path: Path) -> ResultsDB:
+        opened.append(open_for_writing(db_path))
+        return opened[-1]
+
+    monkeypatch.setattr(ResultsDB, "open_for_writing", spy)
+    argv = ["sweep", "--avs", "1", "--runs", "1", "--db", str(path), "--scenario", str(tiny), "--resume"]
+    assert main(argv) == 0  # nothing left to run: no SUMO started
+    assert len(opened) == 1 and opened[0].closed
 
 
 def test_a_write_waits_and_retries_while_another_process_holds_the_lock(
@@ -82,12 +155,13 @@ def test_a_write_waits_and_retries_while_another_process_holds_the_lock(
     monkeypatch.setattr(db, "BUSY_TIMEOUT_S", 0.1)
     monkeypatch.setattr(db, "WRITE_ATTEMPTS", 30)
     path = tmp_path / "r.sqlite"
-    conn = db.connect(path)
+    results = ResultsDB.open_for_writing(path)
     holder = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
     holder.execute("BEGIN EXCLUSIVE")
     threading.Timer(0.8, lambda: holder.execute("COMMIT")).start()  # longer than one busy timeout
     start = time.monotonic()
-    assert db.store(conn, result(0)) is True
+    with results:
+        assert results.store(result(0)) is True
     assert time.monotonic() - start >= 0.7
     assert count(path, "runs") == 1
 
@@ -96,12 +170,13 @@ def test_a_lock_held_through_every_retry_is_one_clear_error(tmp_path: Path, monk
     monkeypatch.setattr(db, "BUSY_TIMEOUT_S", 0.05)
     monkeypatch.setattr(db, "WRITE_ATTEMPTS", 3)
     path = tmp_path / "r.sqlite"
-    conn = db.connect(path)
+    results = ResultsDB.open_for_writing(path)
     holder = sqlite3.connect(path, isolation_level=None)
     holder.execute("BEGIN EXCLUSIVE")
-    with pytest.raises(UsageError, match=r"cannot store run mlca-c, 1 AVs, seed 0: another process kept the"):
-        db.store(conn, result(0))
+    with results, pytest.raises(UsageError, match=r"cannot store run mlca-c, 1 AVs, seed 0: another process kept"):
+        results.store(result(0))
     holder.execute("ROLLBACK")
+    holder.close()
 
 
 @pytest.mark.slow
@@ -109,7 +184,7 @@ def test_names_with_hash_and_question_mark_are_plain_file_names(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = tmp_path / "res#1?x=%41.sqlite"
-    db.store(db.connect(path), result(0))
+    store(path, result(0))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res#1?x=%41.sqlite"]
     assert main(["report", "--db", str(path), "--out", str(tmp_path / "report")]) == 0  # it opens file:PATH?mode=ro
     assert "wrote 11 files" in capsys.readouterr().out
@@ -136,7 +211,7 @@ def _older(path: Path) -> None:
 
 
 def _newer(path: Path) -> None:
-    db.connect(path).close()
+    ResultsDB.open_for_writing(path).close()
     with sqlite3.connect(path) as conn:
         conn.execute(f"PRAGMA user_version = {db.SCHEMA_VERSION + 1}")
 
@@ -176,7 +251,7 @@ def _without_dac_override() -> None:
 
 def test_a_read_only_database_is_refused_before_the_run(tmp_path: Path, tiny: Path) -> None:
     path = tmp_path / "ro.sqlite"
-    db.store(db.connect(path), result(0))
+    store(path, result(0))
     path.chmod(0o444)
     argv = [sys.executable, "-m", "sim_check", "run", "--seed", "1", "--db", str(path), "--scenario", str(tiny)]
     drop = _without_dac_override if os.geteuid() == 0 else None
@@ -205,7 +280,7 @@ def test_resume_leaves_the_runs_a_live_sweep_holds_and_reclaims_a_dead_ones(
     tmp_path: Path, tiny: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = tmp_path / "r.sqlite"
-    db.store(db.connect(path), result(0))
+    store(path, result(0))
     other = _sleeper()
     try:
         _lease(path, range(1, 3), other.pid)  # another sweep, alive, runs seeds 1 and 2
@@ -220,10 +295,10 @@ def test_resume_leaves_the_runs_a_live_sweep_holds_and_reclaims_a_dead_ones(
     finally:
         other.kill()
         other.wait()
-    plan = db.lease(db.connect(path), [("mlca-c", 1, s) for s in range(3)], resume=True, retry_failed=False)
+    with ResultsDB.open_for_writing(path) as results:
+        plan = results.lease([("mlca-c", 1, s) for s in range(3)], resume=True, retry_failed=False)
     assert (plan.todo, plan.held) == ([("mlca-c", 1, 1), ("mlca-c", 1, 2)], {})  # the dead sweep's leases reclaimed
-    with sqlite3.connect(path) as conn:
-        assert {row[4] for row in conn.execute("SELECT * FROM leases")} == {os.getpid()}
+    assert set(column(path, "leases", "pid")) == {os.getpid()}
 
 
 @pytest.mark.slow
@@ -240,32 +315,32 @@ def test_resume_during_a_sweep_leaves_its_runs_to_it(tmp_path: Path, tiny: Path)
     assert time.monotonic() - started < 5  # it ran nothing: every run is stored or held by the first sweep
     _, err = first.communicate(timeout=60)
     assert first.returncode == 0 and "Traceback" not in err
-    with sqlite3.connect(path) as conn:
-        assert conn.execute("SELECT seed FROM runs ORDER BY seed").fetchall() == [(s,) for s in range(6)]
+    assert column(path, "runs", "seed") == list(range(6))
     assert count(path, "av_metrics") == 6 and count(path, "leases") == 0
 
 
 def test_a_lease_whose_pid_was_reused_is_reclaimed(tmp_path: Path) -> None:
     path = tmp_path / "r.sqlite"
-    conn = db.connect(path)
-    with sqlite3.connect(path) as other:
-        other.execute("INSERT INTO leases VALUES ('mlca-c', 1, 0, ?, ?, '1')", (db.Owner.me().host, os.getppid()))
-    plan = db.lease(conn, [("mlca-c", 1, 0)], resume=True, retry_failed=False)
+    with ResultsDB.open_for_writing(path) as results:
+        with sqlite3.connect(path) as other:  # another process's lease, written as that process would
+            other.execute("INSERT INTO leases VALUES ('mlca-c', 1, 0, ?, ?, '1')", (db.Owner.me().host, os.getppid()))
+        other.close()
+        plan = results.lease([("mlca-c", 1, 0)], resume=True, retry_failed=False)
     assert plan.todo == [("mlca-c", 1, 0)]  # the parent lives, but was not started at clock tick 1
 
 
 def test_failed_runs_are_retried_only_with_retry_failed(tmp_path: Path) -> None:
     path = tmp_path / "r.sqlite"
-    conn = db.connect(path)
-    db.store(conn, result(0, "failed"))
-    db.store(conn, result(1))
     wanted = [("mlca-c", 1, 0), ("mlca-c", 1, 1)]
-    assert db.lease(conn, wanted, resume=True, retry_failed=False).todo == []
-    db.release(conn)
-    plan = db.lease(conn, wanted, resume=True, retry_failed=True)
-    assert (plan.todo, plan.stored, plan.retried) == ([("mlca-c", 1, 0)], 1, 1)
-    assert count(path, "runs") == count(path, "av_metrics") == 1  # the failed run's rows are gone
-    assert db.store(conn, result(0)) is True
+    with ResultsDB.open_for_writing(path) as results:
+        results.store(result(0, "failed"))
+        results.store(result(1))
+        assert results.lease(wanted, resume=True, retry_failed=False).todo == []
+        results.release()
+        plan = results.lease(wanted, resume=True, retry_failed=True)
+        assert (plan.todo, plan.stored, plan.retried) == ([("mlca-c", 1, 0)], 1, 1)
+        assert count(path, "runs") == count(path, "av_metrics") == 1  # the failed run's rows are gone
+        assert results.store(result(0)) is True
 
 
 def test_retry_failed_needs_resume(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -277,19 +352,18 @@ def test_retry_failed_needs_resume(tmp_path: Path, capsys: pytest.CaptureFixture
 @pytest.mark.slow
 def test_resume_retry_failed_runs_a_failed_run_again(tmp_path: Path, tiny: Path) -> None:
     path = tmp_path / "r.sqlite"
-    db.store(db.connect(path), result(0, "failed"))
+    store(path, result(0, "failed"))
     argv = ["sweep", "--avs", "1", "--runs", "1", "--jobs", "1", "--db", str(path), "--scenario", str(tiny)]
     assert main([*argv, "--resume"]) == 0
-    with sqlite3.connect(path) as conn:
-        assert conn.execute("SELECT status FROM runs").fetchall() == [("failed",)]
+    assert column(path, "runs", "status") == ["failed"]
     assert main([*argv, "--resume", "--retry-failed"]) == 0
-    with sqlite3.connect(path) as conn:
-        assert conn.execute("SELECT status, sim_steps > 0 FROM runs").fetchall() == [("done", 1)]
+    assert column(path, "runs", "status") == ["done"]
+    assert [steps > 0 for steps in column(path, "runs", "sim_steps")] == [True]
 
 
 def test_run_refuses_a_run_the_database_holds(tmp_path: Path, tiny: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path = tmp_path / "r.sqlite"
-    db.store(db.connect(path), result(0))
+    store(path, result(0))
     assert main(["run", "--db", str(path), "--scenario", str(tiny)]) == 2
     assert "already holds this run (mlca-c, 1 AVs, seed 0)" in one_line_error(capsys)
 
