@@ -168,3 +168,38 @@ def test_an_error_message_cannot_carry_terminal_control_characters(
     err = capsys.readouterr().err
     assert "\x1b" not in err
     assert "initial state '\\x1b[2J' is not a state" in err
+
+
+def test_gen_refuses_to_replace_another_specs_code(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for name in ("mine.toml", "copy.toml"):
+        (tmp_path / name).write_text((ROOT / "spec" / "mlca.toml").read_text())
+    out = tmp_path / "generated"
+    assert main(["gen", str(tmp_path / "mine.toml"), "--out", str(out)]) == 0
+    before = (out / "c" / "mlca_fsm.c").read_text()
+    assert main(["gen", str(tmp_path / "copy.toml"), "--out", str(out)]) == 2
+    assert "holds the code generated from mine.toml" in capsys.readouterr().err
+    assert (out / "c" / "mlca_fsm.c").read_text() == before
+    assert main(["gen", str(tmp_path / "mine.toml"), str(tmp_path / "copy.toml"), "--out", str(tmp_path / "two")]) == 2
+    assert "two machines of one name need separate --out folders" in capsys.readouterr().err
+
+
+def test_conform_says_first_that_the_spec_has_unexpected_verdicts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "u.toml"
+    spec.write_text((ROOT / "spec" / "mlca.toml").read_text().replace('expect = "violated"', 'expect = "holds"'))
+    assert main(["gen", str(spec), "--out", str(tmp_path / "g")]) == 0
+    capsys.readouterr()
+    main(["conform", str(spec), "--generated", str(tmp_path / "g"), "--only", "compile"])
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].startswith("  note: the spec has 2 unexpected verdicts (gap-taken, left-gap-taken-left;")
+
+
+def test_another_machines_evidence_shows_no_mlca_readings(tmp_path: Path) -> None:
+    (tmp_path / "acc.toml").write_text("")
+    assert cli.default_readings(tmp_path / "acc.toml") == []
+    assert cli.default_readings(ROOT / "spec" / "mlca_r.toml") == [
+        "spec/mlca.toml",
+        "spec/paper/figure.toml",
+        "spec/paper/prose.toml",
+    ]

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from mlca_verify import __version__, ci_formats, cli_base, report
 from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser
-from mlca_verify.codegen import drift, generate, write
+from mlca_verify.codegen import drift, foreign, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.diagram import FORMATS
@@ -91,7 +91,8 @@ def _parser() -> argparse.ArgumentParser:
     )
     evidence.add_argument(
         "--readings", nargs="*", metavar="SPEC", default=None,
-        help="the paper's readings to show side by side, canonical first (default: spec/mlca.toml spec/paper/*.toml)",
+        help="readings to show side by side, canonical first (default for the shipped specs: spec/mlca.toml "
+        "spec/paper/*.toml; for another spec: none)",
     )  # fmt: skip
     return parser
 
@@ -198,7 +199,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
     out = Path(args.out)
     files: dict[str, str] = {}
     for path in args.specs or _default_specs():
-        files.update(generate(load_spec(path, compare=False), out))
+        new = generate(load_spec(path, compare=False), out)
+        if clash := sorted(set(new) & set(files)):
+            raise UsageError(f"{path}: error: its code would replace {out / clash[0]}, generated from another spec "
+                             "given here: two machines of one name need separate --out folders")  # fmt: skip
+        files.update(new)
     if args.check:
         problems = drift(files, out)
         for d in problems:
@@ -209,9 +214,24 @@ def cmd_gen(args: argparse.Namespace) -> int:
         print(f"{len(files)} generated files up to date in {out}/")
         return EXIT_OK
     writable_folder(out)
+    if taken := foreign(files, out):
+        rel, other = taken[0]
+        raise UsageError(f"{out / rel}: error: holds the code generated from {other}; refusing to replace it with "
+                         "another spec's (delete it if the spec moved; two machines of one name need separate "
+                         "--out folders)")  # fmt: skip
     for path, changed in write(files, out):
         print(f"{'wrote' if changed else 'unchanged'} {path}")
     return EXIT_OK
+
+
+def _say_unexpected(spec: LoadedSpec) -> None:
+    """Say first when the spec itself has a verdict other than expected: the proofs of the code (WP, which assumes
+    every expected invariant) then fail because of the spec, not because of the generated code."""
+    unexpected = [r.prop for r in check_all(spec.machine) if not r.ok]
+    if unexpected:
+        listed = ", ".join(unexpected[:5]) + (", ..." if len(unexpected) > 5 else "")
+        print(f"  note: the spec has {len(unexpected)} unexpected verdicts ({listed}; see `mlca-verify check`): "
+              "a failing check below may come from the spec, not from the generated code")  # fmt: skip
 
 
 def cmd_conform(args: argparse.Namespace) -> int:
@@ -223,6 +243,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
     results = []
     for spec in specs:
         print(f"{spec.path} ({spec.machine.name})")
+        _say_unexpected(spec)
         width = max(len(n) for n in ["up-to-date", *names])
 
         def show(outcome: CheckOutcome, width: int = width) -> None:
@@ -258,14 +279,18 @@ def cmd_diagram(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def default_readings(spec: Path) -> list[str]:
+    """The readings shown beside a spec when none are given: for a spec in the same folder as spec/mlca.toml (the
+    shipped machines), the paper's three readings; for any other spec, none (another machine's diagrams do not
+    belong in its safety case)."""
+    canonical = Path("spec") / "mlca.toml"
+    if not canonical.is_file() or spec.resolve().parent != canonical.resolve().parent:
+        return []
+    return [str(canonical), *sorted(str(p) for p in (canonical.parent / "paper").glob("*.toml"))]
+
+
 def cmd_evidence(args: argparse.Namespace) -> int:
-    readings = args.readings
-    if readings is None:
-        readings = [
-            p
-            for p in ["spec/mlca.toml", *sorted(str(p) for p in Path("spec/paper").glob("*.toml"))]
-            if Path(p).is_file()
-        ]
+    readings = default_readings(Path(args.spec)) if args.readings is None else args.readings
     db = Path(args.db) if args.db else None
     if db is not None and not db.is_file():
         raise UsageError(f"{db}: error: results database not found")

@@ -1,5 +1,5 @@
 """Collect the safety-case evidence for one machine: proofs, conformance of the generated code, tool versions,
-hashes, traceability, the paper's readings side by side, and a GSN-style argument over all of it.
+hashes, traceability, readings of the source side by side, and a GSN-style argument over all of it.
 
 Everything collected is deterministic for the same inputs (no durations, sorted goal lists, fixed seeds); the
 one timestamp is `generated_at`, which SOURCE_DATE_EPOCH fixes too.
@@ -265,9 +265,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
         None,
         ev.ok,
     )
-    node(
-        "C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, from the paper: {m.cite}", "G1", link="#inputs"
-    )
+    node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
     node("S1", "strategy", "Argue over the specification, the generated code, and closed-loop behaviour", "G1")
     node("G2", "goal", "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
          "S1", all(r.ok for r in ev.results))  # fmt: skip
