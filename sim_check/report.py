@@ -16,6 +16,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import jinja2
+
+from mlca_verify.escape import one_line
 from mlca_verify.files import write_atomic
 from sim_check.controllers import SETUPS
 from sim_check.db import MechanismTotals, ResultsDB, RunTotals
@@ -265,109 +268,127 @@ def claim_rows(data: Data, claim: Claim) -> list[tuple[str, ClaimVerdict]]:
     return [("1 and 3 AVs pooled", extreme_verdict(claim.subject, groups, lowest=claim.kind == "lowest"))]
 
 
-def _stand_ins() -> list[str]:
-    lines = ["| paper's name | controller | what runs |", "|---|---|---|"]
-    names = {"lc2013": "LC2013, LC2014", "sl2015": "LC2017, Continuous (sublane)", "continuous": "Continuous",
-             "idm-lc": "IDM/LC", "mobil": "MOBIL", "without": "without algorithm", "mlca-c": "MLCA",
-             "mlca_r-c": "(not in the paper) MLCA-R, the repair"}  # fmt: skip
-    for controller, name in names.items():
-        lines.append(f"| {name} | `{controller}` | {SETUPS[controller].stands_for} |")
-    return lines
+TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # shipped as package data
+TEMPLATE = "report.md.j2"
+Row = tuple[str, ...]  # the cells of one table row, formatted
 
 
-def markdown(data: Data, figures: list[Path]) -> str:
-    keys = sorted(data.groups)
-    runs = sum(len(g.seeds) for g in data.groups.values())
-    failed = sum(g.failed for g in data.groups.values())
-    violations = sum(g.violations for g in data.groups.values())
-    out = [
-        "# The paper's comparison, reproduced",
-        "",
-        f"From `{data.db.name}`: {runs} finished runs in {len(keys)} configurations (controller x AVs), "
-        f"{failed} failed runs, {violations} monitor violations. Lane changes are counted per run and summed over "
-        "the run's AVs; collisions are those involving an AV (SUMO's collision detection, junctions included). "
-        "Intervals are 95% bootstrap intervals of the mean over runs.",
-        "",
-        "## Which model stands for which name of the paper",
-        "",
-        "SUMO 1.28 ships the lane-change models LC2013, SL2015 and DK2008; it has no model named LC2014, LC2017 or "
-        "MOBIL.",
-        "",
-        *_stand_ins(),
-        "",
-        "## Claims",
-        "",
-        "Rule: a reduction claim is *reproduced* when the 95% interval of the measured reduction contains the "
-        "claimed one and a one-sided Mann-Whitney U test finds MLCA lower (p < 0.05); *not comparable* when the "
-        "baseline has no events, so no reduction is defined. A ranking claim is reproduced when the controller "
-        "ranks first and no other is significantly better (one-sided Mann-Whitney, p < 0.05).",
-        "",
-        "| claim | where | scope | verdict | measured | test |",
-        "|---|---|---|---|---|---|",
+def cell(text: str) -> str:
+    """Text from a results database for one Markdown table cell: one line, its backslashes kept literal and its
+    '|' unable to end the cell (plain names pass unchanged)."""
+    return one_line(text.replace("\\", "\\\\").replace("|", "\\|"))
+
+
+def _environment() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATE_DIR)),
+        undefined=jinja2.StrictUndefined,
+        keep_trailing_newline=True,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        autoescape=False,
+    )
+    env.filters.update(cell=cell, line=one_line)
+    return env
+
+
+def _share(part: int, whole: int) -> str:
+    return f"{part / max(whole, 1):.0%}"
+
+
+def _claims(data: Data) -> list[Row]:
+    """key, text, cite, scope, verdict, measured, test per evaluation of each claim."""
+    return [
+        (claim.key, claim.text, claim.cite, scope, v.verdict, v.measured, v.test)
+        for claim in CLAIMS
+        for scope, v in claim_rows(data, claim)
     ]
-    for claim in CLAIMS:
-        for scope, v in claim_rows(data, claim):
-            out.append(f"| {claim.key}: {claim.text} | {claim.cite} | {scope} | **{v.verdict}** | {v.measured} | "
-                       f"{v.test} |")  # fmt: skip
-    for fig_spec in LANE_FIGURES:
-        out += ["", f"## {fig_spec.title} ({fig_spec.cite})", "", f"![{fig_spec.title}]({fig_spec.key}.svg)", "",
-                "| controller | AVs | km | paper | measured mean [95% CI] | runs |",
-                "|---|---|---|---|---|---|"]  # fmt: skip
-        for avs in (1, 3):
-            for controller in (*fig_spec.series, *fig_spec.extra):
-                paper = fig_spec.paper.get((controller, avs))
-                for i, km in enumerate(MARKS):
-                    values = data.values(controller, avs, "lc", km)
-                    out.append(f"| {label(controller)} | {avs} | {km} | {paper[i] if paper else '-'} | "
-                               f"{_fmt(mean_ci(values))} | {len(values)} |")  # fmt: skip
-    out += ["", f"## Collisions ({COLLISION_CITE})", "", "![collisions](fig5_collisions.svg)", "",
-            "| controller | AVs | paper (per 100 runs) | physical contact per 100 runs [95% CI] | "
-            "closer than minGap per 100 runs [95% CI] | runs |", "|---|---|---|---|---|---|"]  # fmt: skip
+
+
+def _lane_rows(data: Data, fig_spec: LaneFigure) -> list[Row]:
+    """controller, AVs, km, paper, measured mean [95% CI], runs."""
+    rows: list[Row] = []
+    for avs in (1, 3):
+        for controller in (*fig_spec.series, *fig_spec.extra):
+            paper = fig_spec.paper.get((controller, avs))
+            for i, km in enumerate(MARKS):
+                values = data.values(controller, avs, "lc", km)
+                cells = (str(avs), str(km), str(paper[i]) if paper else "-", _fmt(mean_ci(values)), str(len(values)))
+                rows.append((label(controller), *cells))
+    return rows
+
+
+def _collision_rows(data: Data) -> list[Row]:
+    """controller, AVs, paper (per 100 runs), physical contact and closer than minGap per 100 runs, runs."""
+    rows: list[Row] = []
     for controller, avs, g in data.ordered():
-        coll = _scaled(mean_ci(g.collisions), 100.0)
-        mingap = _scaled(mean_ci(g.mingap), 100.0)
-        out.append(f"| {label(controller)} | {avs} | {PAPER_COLLISIONS.get(controller, '-')} | "
-                   f"{_fmt(coll, 1)} | {_fmt(mingap, 1)} | {len(g.seeds)} |")  # fmt: skip
-    out += _mechanism(data)
-    out += _cost(data)
-    out += ["", "## Files", "", *[f"- `{p.name}`" for p in figures], ""]
-    return "\n".join(out)
+        contact = _fmt(_scaled(mean_ci(g.collisions), 100.0), 1)
+        mingap = _fmt(_scaled(mean_ci(g.mingap), 100.0), 1)
+        paper = str(PAPER_COLLISIONS.get(controller, "-"))
+        rows.append((label(controller), str(avs), paper, contact, mingap, str(len(g.seeds))))
+    return rows
 
 
-def _mechanism(data: Data) -> list[str]:
-    lines = ["", "## Mechanism: what the machines do with a need to change lane", "",
-             "Per AV: an *episode* is a stretch of steps in which N holds (a lane change is wanted). *Moved*: the "
-             "AV changed lane during it. *Deferred*: a safe gap towards the wanted side (L or R) was seen and not "
-             "taken. *Never resolved*: the episode was still open when the AV reached the end of the road. Times "
-             "are per AV, in seconds; state times only for the generated machines.", "",
-             "| controller | AVs | AV runs | episodes | moved | deferred | never resolved | N held s/AV | "
-             "gap passed up s/AV | " + " | ".join(f"{s} s/AV" for s in STATES) + " |",
-             "|---|---|---|---|---|---|---|---|---|" + "---|" * len(STATES)]  # fmt: skip
+def _mechanism_rows(data: Data) -> list[dict[str, object]]:
+    """Per (controller, AVs) with AVs on record: counts, shares of the episodes, and seconds per AV."""
+    rows: list[dict[str, object]] = []
     for (controller, avs), g in sorted(data.groups.items()):
         if not g.av_count:
             continue
         n = g.av_count
-        lines.append(
-            f"| {label(controller)} | {avs} | {n} | {g.needs} | {g.moved} ({g.moved / max(g.needs, 1):.0%}) | "
-            f"{g.deferred} ({g.deferred / max(g.needs, 1):.0%}) | {g.open} ({g.open / max(g.needs, 1):.0%}) | "
-            f"{g.need_s / n:.1f} | {g.deferred_s / n:.1f} | "
-            + " | ".join(f"{g.state_s[s] / n:.1f}" if SETUPS[controller].kind == "fsm" else "-" for s in STATES)
-            + " |"
+        machine = SETUPS[controller].kind == "fsm"
+        rows.append(
+            {
+                "controller": label(controller),
+                "avs": avs,
+                "av_runs": n,
+                "episodes": g.needs,
+                "moved": g.moved,
+                "moved_share": _share(g.moved, g.needs),
+                "deferred": g.deferred,
+                "deferred_share": _share(g.deferred, g.needs),
+                "never_resolved": g.open,
+                "never_resolved_share": _share(g.open, g.needs),
+                "need_s": f"{g.need_s / n:.1f}",
+                "deferred_s": f"{g.deferred_s / n:.1f}",
+                "state_s": [f"{g.state_s[s] / n:.1f}" if machine else "-" for s in STATES],
+            }
         )
-    return lines
+    return rows
 
 
-def _cost(data: Data) -> list[str]:
-    lines = ["", "## Cost: travel time and speed (the paper's Sec. V leaves these out)", "",
-             "![cost](fig6_cost.svg)", "",
-             "| controller | AVs | AV travel time s | AV mean speed km/h | other traffic mean speed km/h |",
-             "|---|---|---|---|---|"]  # fmt: skip
+def _cost_rows(data: Data) -> list[Row]:
+    """controller, AVs, AV travel time s, AV and other traffic mean speed km/h (means with 95% CIs)."""
+    rows: list[Row] = []
     for controller, avs, g in data.ordered():
-        speed = _scaled(mean_ci(g.speed_ms), 3.6)
-        bg = _scaled(mean_ci(g.bg_speed_ms), 3.6)
-        lines.append(f"| {label(controller)} | {avs} | {_fmt(mean_ci(g.travel_s), 1)} | {_fmt(speed, 2)} | "
-                     f"{_fmt(bg, 2)} |")  # fmt: skip
-    return lines
+        travel = _fmt(mean_ci(g.travel_s), 1)
+        speed = _fmt(_scaled(mean_ci(g.speed_ms), 3.6), 2)
+        other = _fmt(_scaled(mean_ci(g.bg_speed_ms), 3.6), 2)
+        rows.append((label(controller), str(avs), travel, speed, other))
+    return rows
+
+
+def markdown(data: Data, figures: list[Path]) -> str:
+    """report.md: the numbers formatted here, the words and the layout in templates/report.md.j2."""
+    values = {
+        "db_name": data.db.name,
+        "runs": sum(len(g.seeds) for g in data.groups.values()),
+        "configurations": len(data.groups),
+        "failed": sum(g.failed for g in data.groups.values()),
+        "violations": sum(g.violations for g in data.groups.values()),
+        "stands_for": {controller: setup.stands_for for controller, setup in SETUPS.items()},
+        "claims": _claims(data),
+        "lane_figures": [
+            {"title": f.title, "cite": f.cite, "key": f.key, "rows": _lane_rows(data, f)} for f in LANE_FIGURES
+        ],
+        "collision_cite": COLLISION_CITE,
+        "collisions": _collision_rows(data),
+        "states": STATES,
+        "mechanism": _mechanism_rows(data),
+        "cost": _cost_rows(data),
+        "files": [p.name for p in figures],
+    }
+    return _environment().get_template(TEMPLATE).render(values)
 
 
 def write_report(db: Path, out: Path) -> list[Path]:
