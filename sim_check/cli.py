@@ -71,15 +71,16 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--json", type=Path, help="also write the run as JSON")
     sweep = sub.add_parser("sweep", help="many runs over worker processes into a results database")
     sweep.add_argument("--controller", help=f"comma-separated, of: {', '.join(CONTROLLERS)} (default mlca-c)")
-    sweep.add_argument("--matrix", choices=["paper"],
-                       help=f"the paper's comparison: {', '.join(PAPER_MATRIX)}")  # fmt: skip
+    sweep.add_argument("--matrix", choices=["paper"], help=f"the paper's comparison: {', '.join(PAPER_MATRIX)}")
     sweep.add_argument("--avs", default="1,3", help="comma-separated AV counts (default 1,3)")
-    sweep.add_argument("--runs", type=_bounded(1, MAX_RUNS), default=100,
-                       help="seeds 0..RUNS-1 per configuration (default 100)")  # fmt: skip
+    sweep.add_argument(
+        "--runs", type=_bounded(1, MAX_RUNS), default=100, help="seeds 0..RUNS-1 per configuration (default 100)"
+    )
     sweep.add_argument("--jobs", type=_bounded(1, MAX_JOBS), default=2, help="worker processes (default 2)")
     sweep.add_argument("--db", type=Path, required=True, help="results database (SQLite)")
-    sweep.add_argument("--resume", action="store_true",
-                       help="skip the runs the database already holds and those a running sweep holds")  # fmt: skip
+    sweep.add_argument(
+        "--resume", action="store_true", help="skip the runs the database already holds and those a running sweep holds"
+    )
     sweep.add_argument("--retry-failed", action="store_true", help="with --resume: run the failed runs again")
     sweep.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's)")
     sweep.add_argument("--timeout", type=_seconds, default=600.0, help="seconds before a run is declared hung")
@@ -117,8 +118,10 @@ def require_extra(command: str) -> None:
     """Refuse, with what to install, a command whose simulation dependencies (the `sim` extra) are missing."""
     missing = [name for name in SIM_EXTRA if importlib.util.find_spec(name) is None]
     if missing:
-        raise UsageError(f"error: mlca-sim {command} needs the simulation extra, missing {', '.join(missing)}: "
-                         "pip install 'mlca-verify[sim]'")  # fmt: skip
+        raise UsageError(
+            f"error: mlca-sim {command} needs the simulation extra, missing {', '.join(missing)}: "
+            "pip install 'mlca-verify[sim]'"
+        )
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -130,8 +133,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _run(args, scenario, None)
     with ResultsDB.open_for_writing(args.db) as results:  # a database that cannot take the run is refused first
         if (args.controller, scenario.traffic.avs, args.seed) in results.stored_keys():
-            raise UsageError(f"{args.db}: error: already holds this run ({args.controller}, "
-                             f"{scenario.traffic.avs} AVs, seed {args.seed}); give another --db")  # fmt: skip
+            raise UsageError(
+                f"{args.db}: error: already holds this run ({args.controller}, "
+                f"{scenario.traffic.avs} AVs, seed {args.seed}); give another --db"
+            )
         return _run(args, scenario, results)
 
 
@@ -142,8 +147,10 @@ def _run(args: argparse.Namespace, scenario: Scenario, results: ResultsDB | None
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as work:
         result = run_once(scenario, args.controller, args.seed, Path(work))
     print(_table([result]))
-    print(f"{result.sim_steps} steps, {result.vehicle_steps} vehicle-steps, {result.wall_s:.2f} s wall, "
-          f"{result.collisions} collisions, {result.monitor_violations} monitor violations")  # fmt: skip
+    print(
+        f"{result.sim_steps} steps, {result.vehicle_steps} vehicle-steps, {result.wall_s:.2f} s wall, "
+        f"{result.collisions} collisions, {result.monitor_violations} monitor violations"
+    )
     if results and not results.store(result):
         print(f"{args.db}: another process stored this run meanwhile; not stored again", file=sys.stderr)
     if args.json:
@@ -199,8 +206,10 @@ class Progress:
         self.counts["violations"] += r.monitor_violations
         n = self.counts["done"] + self.counts["failed"]
         bar = "#" * (30 * n // max(self.total, 1))
-        sys.stderr.write(f"\r[{bar:30}] {n}/{self.total} runs, {self.counts['failed']} failed, "
-                         f"{self.counts['violations']} monitor violations")  # fmt: skip
+        sys.stderr.write(
+            f"\r[{bar:30}] {n}/{self.total} runs, {self.counts['failed']} failed, "
+            f"{self.counts['violations']} monitor violations"
+        )
         sys.stderr.flush()
 
     def end(self) -> None:
@@ -242,8 +251,11 @@ def _run_sweep(args: argparse.Namespace, sweep: Sweep, plan: Plan, wanted: list[
         sweep.run(plan.todo, progress)
     except KeyboardInterrupt:
         stored = len(sweep.database.stored_keys() & set(wanted))
-        print(f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
-              "command with --resume to do the rest", file=sys.stderr)  # fmt: skip
+        print(
+            f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
+            "command with --resume to do the rest",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
     except MlcaError:  # the database failed: the error goes on a line of its own
         progress.end()

@@ -51,26 +51,54 @@ SETUPS = {
         Setup("mlca-c", "fsm", "MLCA", "MLCA, Alg. 1: the generated C code"),
         Setup("mlca_r-py", "fsm", "MLCA-R (Python)", "the repaired machine (docs/findings.md F1), generated Python"),
         Setup("mlca_r-c", "fsm", "MLCA-R", "the repaired machine (docs/findings.md F1), generated C"),
-        Setup("lc2013", "sumo", "LC2013", "LC2013 and LC2014: SUMO's LC2013 (Erdmann's 2014 description of SUMO's "
-              "lane-changing model is LC2013; SUMO has no model named LC2014)"),
-        Setup("sl2015", "sumo", "LC2017 (SL2015)",
-              "LC2017 and Continuous (sublane): SUMO's SL2015 sublane model, its newest lane-change model, which "
-              "weighs several leaders and followers across sublanes as the paper's LC2017 description says (SUMO has "
-              "no model named LC2017); the lateral resolution is a simulation option, so every vehicle drives SL2015",
-              av_type='laneChangeModel="SL2015"', options=("--lateral-resolution", str(SUBLANE_RESOLUTION_M))),
-        Setup("continuous", "sumo", "Continuous",
-              "Continuous: LC2013 with SUMO's continuous (non-instant, 3 s) lane changing, --lanechange.duration 3; "
-              "a simulation option, so every vehicle changes lanes this way",
-              options=("--lanechange.duration", "3")),
-        Setup("idm-lc", "sumo", "IDM/LC", "IDM/LC: IDM car following with SUMO's LC2013 for the AV",
-              av_type='carFollowModel="IDM"'),
-        Setup("dk2008", "sumo", "DK2008", "SUMO's oldest shipped lane-change model, for reference",
-              av_type='laneChangeModel="DK2008"'),
+        Setup(
+            "lc2013",
+            "sumo",
+            "LC2013",
+            "LC2013 and LC2014: SUMO's LC2013 (Erdmann's 2014 description of SUMO's "
+            "lane-changing model is LC2013; SUMO has no model named LC2014)",
+        ),
+        Setup(
+            "sl2015",
+            "sumo",
+            "LC2017 (SL2015)",
+            "LC2017 and Continuous (sublane): SUMO's SL2015 sublane model, its newest lane-change model, which "
+            "weighs several leaders and followers across sublanes as the paper's LC2017 description says (SUMO has "
+            "no model named LC2017); the lateral resolution is a simulation option, so every vehicle drives SL2015",
+            av_type='laneChangeModel="SL2015"',
+            options=("--lateral-resolution", str(SUBLANE_RESOLUTION_M)),
+        ),
+        Setup(
+            "continuous",
+            "sumo",
+            "Continuous",
+            "Continuous: LC2013 with SUMO's continuous (non-instant, 3 s) lane changing, --lanechange.duration 3; "
+            "a simulation option, so every vehicle changes lanes this way",
+            options=("--lanechange.duration", "3"),
+        ),
+        Setup(
+            "idm-lc",
+            "sumo",
+            "IDM/LC",
+            "IDM/LC: IDM car following with SUMO's LC2013 for the AV",
+            av_type='carFollowModel="IDM"',
+        ),
+        Setup(
+            "dk2008",
+            "sumo",
+            "DK2008",
+            "SUMO's oldest shipped lane-change model, for reference",
+            av_type='laneChangeModel="DK2008"',
+        ),
         Setup("mobil", "mobil", "MOBIL", "MOBIL (Kesting, Treiber and Helbing 2007), implemented in sim_check.mobil"),
-        Setup("without", "without", "Without", "without algorithm: the AV changes lane whenever N holds, with no gap "
-              "check (laneChangeMode 0)"),
+        Setup(
+            "without",
+            "without",
+            "Without",
+            "without algorithm: the AV changes lane whenever N holds, with no gap check (laneChangeMode 0)",
+        ),
     )
-}  # fmt: skip
+}
 CONTROLLERS = tuple(SETUPS)
 # The paper's comparison (Sec. IV): every model once, MLCA as generated C, and the repair.
 PAPER_MATRIX = ("lc2013", "sl2015", "continuous", "idm-lc", "mobil", "without", "mlca-c", "mlca_r-c")

@@ -39,11 +39,31 @@ APPLICATION_ID = 0x4D4C4353  # "MLCS": this file is a results database of mlca-s
 SCHEMA_VERSION = 2  # 1: runs, av_metrics, violations (unmarked files); 2: the same and leases
 BUSY_TIMEOUT_S = 30.0  # how long one attempt waits for another writer's lock
 WRITE_ATTEMPTS = 10  # attempts of a write before the database is declared stuck
-AV_COLUMNS = ("av", *(f"lc_{km}km" for km in MARKS_KM), "collisions", "emergency_brakes", "min_time_gap_s",
-              "travel_time_s", "mean_speed_ms", "arrived", "monitor_violations", "mingap_contacts", *MECHANISM,
-              *(f"{state.lower()}_s" for state in STATES))  # fmt: skip
-RUN_COLUMNS = ("status", "reason", "sim_steps", "wall_s", "vehicle_steps", "collisions", "monitor_violations",
-               "trajectory_sha256", "bg_mean_speed_ms")  # fmt: skip
+AV_COLUMNS = (
+    "av",
+    *(f"lc_{km}km" for km in MARKS_KM),
+    "collisions",
+    "emergency_brakes",
+    "min_time_gap_s",
+    "travel_time_s",
+    "mean_speed_ms",
+    "arrived",
+    "monitor_violations",
+    "mingap_contacts",
+    *MECHANISM,
+    *(f"{state.lower()}_s" for state in STATES),
+)
+RUN_COLUMNS = (
+    "status",
+    "reason",
+    "sim_steps",
+    "wall_s",
+    "vehicle_steps",
+    "collisions",
+    "monitor_violations",
+    "trajectory_sha256",
+    "bg_mean_speed_ms",
+)
 LEASE_COLUMNS = ("host", "pid", "started")
 SCHEMA = (
     """CREATE TABLE IF NOT EXISTS runs (
@@ -168,8 +188,9 @@ def _retrying(
                 raise UsageError(f"{_file(conn)}: error: cannot {what}: {err}") from None
             time.sleep(min(1.0, 0.01 * 2**attempt))  # the busy timeout has waited already
     waited = time.monotonic() - start
-    raise UsageError(f"{_file(conn)}: error: cannot {what}: another process kept the database locked for "
-                     f"{waited:.0f} s")  # fmt: skip
+    raise UsageError(
+        f"{_file(conn)}: error: cannot {what}: another process kept the database locked for {waited:.0f} s"
+    )
 
 
 def connect(path: Path) -> sqlite3.Connection:
@@ -215,17 +236,21 @@ def _check(conn: sqlite3.Connection, path: Path, app: int, version: int, tables:
     """Refuse a database this version does not write: foreign, older, newer, or with other columns."""
     if app not in (0, APPLICATION_ID) or (app == 0 and "runs" not in tables):
         names = ", ".join(sorted(tables)) or "none"
-        raise UsageError(f"{path}: error: not a results database of mlca-sim (its tables: {names}); "
-                         "give a new file to --db")  # fmt: skip
+        raise UsageError(
+            f"{path}: error: not a results database of mlca-sim (its tables: {names}); give a new file to --db"
+        )
     _columns(conn, path, tables & {"runs", "av_metrics"})
     version = version if app else 1
     schemas = f"results schema {version}, this one writes {SCHEMA_VERSION}"
     if version < SCHEMA_VERSION:
-        raise UsageError(f"{path}: error: written by an older mlca-sim ({schemas}); use a new database file "
-                         "(mlca-sim report still reads this one)")  # fmt: skip
+        raise UsageError(
+            f"{path}: error: written by an older mlca-sim ({schemas}); use a new database file "
+            "(mlca-sim report still reads this one)"
+        )
     if version > SCHEMA_VERSION:
-        raise UsageError(f"{path}: error: written by a newer mlca-sim ({schemas}); use that version or a new "
-                         "database file")  # fmt: skip
+        raise UsageError(
+            f"{path}: error: written by a newer mlca-sim ({schemas}); use that version or a new database file"
+        )
     _columns(conn, path, set(COLUMNS))
 
 
@@ -234,8 +259,10 @@ def _columns(conn: sqlite3.Connection, path: Path, tables: Iterable[str]) -> Non
         have = [r[1] for r in conn.execute(f"PRAGMA table_info({table})")]
         if have != list(COLUMNS[table]):
             missing = sorted(set(COLUMNS[table]) - set(have))
-            raise UsageError(f"{path}: error: table {table} has other columns than this version writes "
-                             f"(missing: {', '.join(missing) or 'none'}); use a new database file")  # fmt: skip
+            raise UsageError(
+                f"{path}: error: table {table} has other columns than this version writes "
+                f"(missing: {', '.join(missing) or 'none'}); use a new database file"
+            )
 
 
 def _probe(conn: sqlite3.Connection) -> None:
@@ -258,9 +285,19 @@ def _insert(conn: sqlite3.Connection, r: RunResult) -> bool:
     conn.execute("DELETE FROM leases WHERE controller = ? AND avs = ? AND seed = ?", key)
     added = conn.execute(
         f"INSERT OR IGNORE INTO runs VALUES (?, ?, ?, {', '.join('?' for _ in RUN_COLUMNS)})",
-        (*key, r.status, r.reason, r.sim_steps, round(r.wall_s, 3), r.vehicle_steps, r.collisions,
-         r.monitor_violations, r.trajectory_sha256, r.bg_mean_speed_ms),
-    ).rowcount  # fmt: skip
+        (
+            *key,
+            r.status,
+            r.reason,
+            r.sim_steps,
+            round(r.wall_s, 3),
+            r.vehicle_steps,
+            r.collisions,
+            r.monitor_violations,
+            r.trajectory_sha256,
+            r.bg_mean_speed_ms,
+        ),
+    ).rowcount
     if not added:
         return False
     for m in r.metrics:
@@ -306,8 +343,10 @@ def _plan(conn: sqlite3.Connection, wanted: list[Job], me: Owner, resume: bool, 
         _delete_run(conn, job)
     plan.stored, plan.retried = plan.stored - len(retry), len(retry)
     plan.todo = [job for job in wanted if (job not in status or job in retry) and job not in holders]
-    conn.executemany("INSERT OR REPLACE INTO leases VALUES (?, ?, ?, ?, ?, ?)",
-                     [(*job, me.host, me.pid, me.started) for job in plan.todo])  # fmt: skip
+    conn.executemany(
+        "INSERT OR REPLACE INTO leases VALUES (?, ?, ?, ?, ?, ?)",
+        [(*job, me.host, me.pid, me.started) for job in plan.todo],
+    )
     return plan
 
 
@@ -315,8 +354,9 @@ def _live_leases(conn: sqlite3.Connection, me: Owner) -> dict[Job, Owner]:
     """Leases of other live processes; those of dead ones are deleted."""
     leases = {(c, a, s): Owner(h, p, st) for c, a, s, h, p, st in conn.execute("SELECT * FROM leases")}
     dead = {owner for owner in set(leases.values()) if owner == me or not owner.alive()}
-    conn.executemany("DELETE FROM leases WHERE host = ? AND pid = ? AND started = ?",
-                     [(o.host, o.pid, o.started) for o in dead])  # fmt: skip
+    conn.executemany(
+        "DELETE FROM leases WHERE host = ? AND pid = ? AND started = ?", [(o.host, o.pid, o.started) for o in dead]
+    )
     return {job: owner for job, owner in leases.items() if owner not in dead}
 
 
@@ -459,8 +499,9 @@ def _monitor_summary(conn: sqlite3.Connection, path: Path, controllers: Sequence
     have = {row[1] for row in conn.execute("PRAGMA table_info(runs)")}
     missing = [column for column in SUMMARY_COLUMNS if column not in have]
     if missing:
-        raise UsageError(f"{path}: error: not a results database of mlca-sim (table runs has no column "
-                         f"{', '.join(missing)})")  # fmt: skip
+        raise UsageError(
+            f"{path}: error: not a results database of mlca-sim (table runs has no column {', '.join(missing)})"
+        )
     query = (
         "SELECT COUNT(*), COALESCE(SUM(monitor_violations), 0), COALESCE(SUM(status != 'done'), 0) FROM runs "
         f"WHERE controller IN ({', '.join('?' for _ in controllers)})"

@@ -133,8 +133,14 @@ def decide(read: Reads, av: str, lane: int, lanes: int, *, leader: Leader, lane_
     for side in (+1, -1):
         if not lowest <= lane + side < lanes:
             continue
-        scene = Scene(v, length, ahead, follower, _nearest(read.neighbours(av, side, leaders=True), speed),
-                      _nearest(read.neighbours(av, side, leaders=False), speed))  # fmt: skip
+        scene = Scene(
+            v,
+            length,
+            ahead,
+            follower,
+            _nearest(read.neighbours(av, side, leaders=True), speed),
+            _nearest(read.neighbours(av, side, leaders=False), speed),
+        )
         verdict = evaluate(scene, side, idm, idm)
         if verdict.change and verdict.incentive > best_gain:
             best, best_gain = side, verdict.incentive

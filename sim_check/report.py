@@ -110,8 +110,11 @@ def _add_run(g: Group, run: RunTotals) -> None:
         g.lc[km].append(float(value))
     g.collisions.append(float(run.collisions))
     g.mingap.append(float(run.mingap_contacts or 0))
-    for target, mean in ((g.travel_s, run.travel_time_s), (g.speed_ms, run.mean_speed_ms),
-                         (g.bg_speed_ms, run.bg_mean_speed_ms)):  # fmt: skip
+    for target, mean in (
+        (g.travel_s, run.travel_time_s),
+        (g.speed_ms, run.mean_speed_ms),
+        (g.bg_speed_ms, run.bg_mean_speed_ms),
+    ):
         if mean is not None:
             target.append(float(mean))
 
@@ -177,8 +180,15 @@ def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
         ax.bar(xs, means, width, color=COLORS[k % len(COLORS)], label=f"{name}, measured", yerr=err, capsize=2)
         paper = fig_spec.paper.get((controller, avs))
         if paper:
-            ax.bar([x + width for x in xs], paper, width, facecolor="none", edgecolor=COLORS[k % len(COLORS)],
-                   hatch="///", label=f"{name}, paper")  # fmt: skip
+            ax.bar(
+                [x + width for x in xs],
+                paper,
+                width,
+                facecolor="none",
+                edgecolor=COLORS[k % len(COLORS)],
+                hatch="///",
+                label=f"{name}, paper",
+            )
     ax.set_xticks(range(len(MARKS)), [f"{km} km" for km in MARKS])
     ax.set_xlabel("cumulative distance")
     ax.set_ylabel("lane changes per run (sum over the AVs)")
@@ -195,11 +205,22 @@ def _av_bars(
 ) -> None:
     """One bar per controller for 1 AV and one for 3 AVs: the mean of `attr` times `scale`, with its 95% CI."""
     for k, avs in enumerate((1, 3)):
-        stats = [_scaled(mean_ci(getattr(data.groups[(c, avs)], attr)), scale) if (c, avs) in data.groups
-                 else (0.0, 0.0, 0.0) for c in controllers]  # fmt: skip
+        stats = [
+            _scaled(mean_ci(getattr(data.groups[(c, avs)], attr)), scale)
+            if (c, avs) in data.groups
+            else (0.0, 0.0, 0.0)
+            for c in controllers
+        ]
         xs = [i + (k + shift) * width for i in range(len(controllers))]
-        ax.bar(xs, [s[0] for s in stats], width, color=COLORS[k], label=f"{avs} AV{'s' if avs > 1 else ''}",
-               yerr=[[s[0] - s[1] for s in stats], [s[2] - s[0] for s in stats]], capsize=2)  # fmt: skip
+        ax.bar(
+            xs,
+            [s[0] for s in stats],
+            width,
+            color=COLORS[k],
+            label=f"{avs} AV{'s' if avs > 1 else ''}",
+            yerr=[[s[0] - s[1] for s in stats], [s[2] - s[0] for s in stats]],
+            capsize=2,
+        )
 
 
 def _finish(ax: Any, controllers: list[str], ylabel: str, title: str) -> None:
@@ -221,14 +242,23 @@ def collision_figure(data: Data, out: Path) -> list[Path]:
     plt = _pyplot()
     controllers = data.present()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=False)
-    for ax, attr, title in ((axes[0], "collisions", "physical contact (mingap-factor 0)"),
-                            (axes[1], "mingap", "closer than minGap (SUMO's default criterion)")):  # fmt: skip
+    for ax, attr, title in (
+        (axes[0], "collisions", "physical contact (mingap-factor 0)"),
+        (axes[1], "mingap", "closer than minGap (SUMO's default criterion)"),
+    ):
         width = 0.26
         _av_bars(ax, data, controllers, attr, scale=100.0, width=width, shift=-1.0)
         if attr == "collisions":
             xs = [i + width for i, c in enumerate(controllers) if c in PAPER_COLLISIONS]
-            ax.bar(xs, [PAPER_COLLISIONS[c] for c in controllers if c in PAPER_COLLISIONS], width, facecolor="none",
-                   edgecolor="black", hatch="///", label=f"paper ({COLLISION_CITE})")  # fmt: skip
+            ax.bar(
+                xs,
+                [PAPER_COLLISIONS[c] for c in controllers if c in PAPER_COLLISIONS],
+                width,
+                facecolor="none",
+                edgecolor="black",
+                hatch="///",
+                label=f"paper ({COLLISION_CITE})",
+            )
         _finish(ax, controllers, "AV collisions per 100 runs", title)
     return _close(fig, out, "fig5_collisions", "Collisions involving an AV per 100 runs (20 km); 95% CI")
 
@@ -237,8 +267,10 @@ def cost_figure(data: Data, controllers: list[str], out: Path) -> list[Path]:
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.38
-    for ax, attr, unit, title in ((axes[0], "travel_s", "s", "AV travel time"),
-                                  (axes[1], "bg_speed_ms", "km/h", "mean speed of the other traffic")):  # fmt: skip
+    for ax, attr, unit, title in (
+        (axes[0], "travel_s", "s", "AV travel time"),
+        (axes[1], "bg_speed_ms", "km/h", "mean speed of the other traffic"),
+    ):
         scale = 3.6 if unit == "km/h" else 1.0
         _av_bars(ax, data, controllers, attr, scale=scale, width=width, shift=-0.5)
         values = [
@@ -259,11 +291,14 @@ def claim_rows(data: Data, claim: Claim) -> list[tuple[str, ClaimVerdict]]:
             subject, baseline = data.pooled(claim.subject, "collisions"), data.pooled(claim.baseline, "collisions")
             return [("1 and 3 AVs pooled", reduction_verdict(subject, baseline, claim.claimed))]
         return [
-            (f"{avs} AV{'s' if avs > 1 else ''}, 20 km",
-             reduction_verdict(data.values(claim.subject, avs, "lc"), data.values(claim.baseline, avs, "lc"),
-                               claim.claimed))
+            (
+                f"{avs} AV{'s' if avs > 1 else ''}, 20 km",
+                reduction_verdict(
+                    data.values(claim.subject, avs, "lc"), data.values(claim.baseline, avs, "lc"), claim.claimed
+                ),
+            )
             for avs in claim.avs
-        ]  # fmt: skip
+        ]
     groups = {c: data.pooled(c, claim.metric) for c in COLLISION_ORDER if data.pooled(c, claim.metric)}
     return [("1 and 3 AVs pooled", extreme_verdict(claim.subject, groups, lowest=claim.kind == "lowest"))]
 

@@ -328,11 +328,29 @@ class ClosedLoop:
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
     return [
-        sumo_bin("sumo"), "-n", str(net), "-r", str(routes), "--seed", str(seed),
-        "--step-length", str(scenario.traffic.step_s),
-        "--collision.action", "warn", "--collision.check-junctions", "true", "--collision.mingap-factor", "0",
-        "--no-step-log", "true", "--duration-log.disable", "true", "--no-warnings", "true", *options,
-    ]  # fmt: skip
+        sumo_bin("sumo"),
+        "-n",
+        str(net),
+        "-r",
+        str(routes),
+        "--seed",
+        str(seed),
+        "--step-length",
+        str(scenario.traffic.step_s),
+        "--collision.action",
+        "warn",
+        "--collision.check-junctions",
+        "true",
+        "--collision.mingap-factor",
+        "0",
+        "--no-step-log",
+        "true",
+        "--duration-log.disable",
+        "true",
+        "--no-warnings",
+        "true",
+        *options,
+    ]
 
 
 def run_once(

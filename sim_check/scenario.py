@@ -50,11 +50,19 @@ class Traffic:
 
 
 LIMITS: dict[str, tuple[float, float]] = {  # beyond these a value is a mistake, or a run no machine finishes
-    "lanes": (1, 10), "length_m": (1, 200_000), "highway_speed_kmh": (1, 300), "ramp_speed_kmh": (1, 300),
-    "ramp_length_m": (1, 10_000), "merge_length_m": (1, 10_000), "approach_m": (1, 10_000),
-    "cars": (1, 10_000), "avs": (1, 100), "depart_window_s": (0, 3600), "av_depart_s": (0, 3600),
+    "lanes": (1, 10),
+    "length_m": (1, 200_000),
+    "highway_speed_kmh": (1, 300),
+    "ramp_speed_kmh": (1, 300),
+    "ramp_length_m": (1, 10_000),
+    "merge_length_m": (1, 10_000),
+    "approach_m": (1, 10_000),
+    "cars": (1, 10_000),
+    "avs": (1, 100),
+    "depart_window_s": (0, 3600),
+    "av_depart_s": (0, 3600),
     "step_s": (0.001, 10),
-}  # fmt: skip
+}
 
 
 @dataclass(frozen=True)
@@ -134,8 +142,14 @@ def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> 
         elif known[key] == "str":
             values[key] = _text(key, given, at, what)
         else:
-            values[key] = _number(given, LIMITS[key], at, what, continuous=known[key] == "float",
-                                  as_float=isinstance(getattr(default, key), float))  # fmt: skip
+            values[key] = _number(
+                given,
+                LIMITS[key],
+                at,
+                what,
+                continuous=known[key] == "float",
+                as_float=isinstance(getattr(default, key), float),
+            )
     return replace(default, **values)
 
 
@@ -152,8 +166,9 @@ def _number(
     if given <= 0:
         raise SpecError(at, f"{what} must be positive, got {_show(given)}")
     if not low <= given <= high:
-        raise SpecError(at, f"{what} must be {f'at least {low:g}' if given < low else f'at most {high:g}'}, got "
-                            f"{_show(given)}")  # fmt: skip
+        raise SpecError(
+            at, f"{what} must be {f'at least {low:g}' if given < low else f'at most {high:g}'}, got {_show(given)}"
+        )
     return float(given) if as_float else given
 
 
@@ -176,8 +191,10 @@ def _lane_name(given: Any, at: Loc, what: str) -> str:
 def _check_lane(scenario: Scenario, where: Locator) -> None:
     lanes, lane = scenario.road.lanes, scenario.traffic.target_lane
     if lane != "middle" and int(lane) >= lanes:
-        raise SpecError(where.loc(("traffic", "target_lane")), f"'target_lane' in [traffic] is lane {lane}, but "
-                        f"the road has {lanes} lanes (0 = rightmost to {lanes - 1})")  # fmt: skip
+        raise SpecError(
+            where.loc(("traffic", "target_lane")),
+            f"'target_lane' in [traffic] is lane {lane}, but the road has {lanes} lanes (0 = rightmost to {lanes - 1})",
+        )
 
 
 def _with_osm(scenario: Scenario, path: Path, where: Locator) -> Scenario:
@@ -223,12 +240,20 @@ def build(scenario: Scenario, seed: int, work: Path, av_type: str = "") -> Built
             sources = ["--osm-files", scenario.road.osm]
         else:
             _write_plain(scenario.road, work)
-            sources = ["--node-files", str(work / "highway.nod.xml"), "--edge-files", str(work / "highway.edg.xml"),
-                       "--connection-files", str(work / "highway.con.xml")]  # fmt: skip
+            sources = [
+                "--node-files",
+                str(work / "highway.nod.xml"),
+                "--edge-files",
+                str(work / "highway.edg.xml"),
+                "--connection-files",
+                str(work / "highway.con.xml"),
+            ]
         done = subprocess.run(
             [sumo_bin("netconvert"), *sources, "--no-turnarounds", "true", "--no-warnings", "true", "-o", str(net)],
-            capture_output=True, text=True, check=False,
-        )  # fmt: skip
+            capture_output=True,
+            text=True,
+            check=False,
+        )
         if done.returncode != 0:
             raise ToolError(f"error: netconvert failed: {done.stderr.strip()}")
     routes = work / f"seed{seed}_avs{scenario.traffic.avs}.rou.xml"

@@ -90,10 +90,13 @@ def _parser() -> argparse.ArgumentParser:
         "--generated", default="generated", metavar="DIR", help="where the code is (default: generated)"
     )
     evidence.add_argument(
-        "--readings", nargs="*", metavar="SPEC", default=None,
+        "--readings",
+        nargs="*",
+        metavar="SPEC",
+        default=None,
         help="readings to show side by side, canonical first (default for the shipped specs: spec/mlca.toml "
         "spec/paper/*.toml; for another spec: none)",
-    )  # fmt: skip
+    )
     return parser
 
 
@@ -201,8 +204,10 @@ def cmd_gen(args: argparse.Namespace) -> int:
     for path in args.specs or _default_specs():
         new = generate(load_spec(path, compare=False), out)
         if clash := sorted(set(new) & set(files)):
-            raise UsageError(f"{path}: error: its code would replace {out / clash[0]}, generated from another spec "
-                             "given here: two machines of one name need separate --out folders")  # fmt: skip
+            raise UsageError(
+                f"{path}: error: its code would replace {out / clash[0]}, generated from another spec "
+                "given here: two machines of one name need separate --out folders"
+            )
         files.update(new)
     if args.check:
         problems = drift(files, out)
@@ -216,9 +221,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
     writable_folder(out)
     if taken := foreign(files, out):
         rel, other = taken[0]
-        raise UsageError(f"{out / rel}: error: holds the code generated from {other}; refusing to replace it with "
-                         "another spec's (delete it if the spec moved; two machines of one name need separate "
-                         "--out folders)")  # fmt: skip
+        raise UsageError(
+            f"{out / rel}: error: holds the code generated from {other}; refusing to replace it with "
+            "another spec's (delete it if the spec moved; two machines of one name need separate "
+            "--out folders)"
+        )
     for path, changed in write(files, out):
         print(f"{'wrote' if changed else 'unchanged'} {path}")
     return EXIT_OK
@@ -230,8 +237,10 @@ def _say_unexpected(spec: LoadedSpec) -> None:
     unexpected = [r.prop for r in check_all(spec.machine) if not r.ok]
     if unexpected:
         listed = ", ".join(unexpected[:5]) + (", ..." if len(unexpected) > 5 else "")
-        print(f"  note: the spec has {len(unexpected)} unexpected verdicts ({listed}; see `mlca-verify check`): "
-              "a failing check below may come from the spec, not from the generated code")  # fmt: skip
+        print(
+            f"  note: the spec has {len(unexpected)} unexpected verdicts ({listed}; see `mlca-verify check`): "
+            "a failing check below may come from the spec, not from the generated code"
+        )
 
 
 def cmd_conform(args: argparse.Namespace) -> int:
@@ -304,8 +313,10 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         try:
             from sim_check.db import ResultsDB
         except ImportError as err:
-            raise UsageError(f"{db}: error: --db needs the simulation part of mlca-verify (sim_check, with "
-                             f"SUMO's libsumo), which cannot be imported here: {err}") from None  # fmt: skip
+            raise UsageError(
+                f"{db}: error: --db needs the simulation part of mlca-verify (sim_check, with "
+                f"SUMO's libsumo), which cannot be imported here: {err}"
+            ) from None
         with ResultsDB.open_for_reading(db) as results:
             summary = results.monitor_summary(loop_controllers(spec))
         runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations)

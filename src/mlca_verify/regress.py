@@ -78,7 +78,13 @@ def transition_changes(old: Machine, new: Machine) -> list[TransitionChange]:
         elif describe(t) != describe(after[tid]):
             changes.append(TransitionChange(tid, "changed", describe(t), describe(after[tid])))
         elif order_before.index(tid) != order_after.index(tid):
-            changes.append(TransitionChange(tid, "changed", f"{describe(t)} (priority {order_before.index(tid) + 1})",
-                                            f"{describe(t)} (priority {order_after.index(tid) + 1})"))  # fmt: skip
+            changes.append(
+                TransitionChange(
+                    tid,
+                    "changed",
+                    f"{describe(t)} (priority {order_before.index(tid) + 1})",
+                    f"{describe(t)} (priority {order_after.index(tid) + 1})",
+                )
+            )
     changes += [TransitionChange(tid, "added", None, describe(t)) for tid, t in after.items() if tid not in before]
     return changes

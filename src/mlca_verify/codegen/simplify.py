@@ -68,8 +68,14 @@ def _tidy(expr: Expr) -> Expr:
         return expr
     a, b = expr.left, expr.right
     if isinstance(a, Const) and isinstance(b, Const):
-        return Const({"and": a.value and b.value, "or": a.value or b.value,
-                      "->": (not a.value) or b.value, "<->": a.value == b.value}[expr.op])  # fmt: skip
+        return Const(
+            {
+                "and": a.value and b.value,
+                "or": a.value or b.value,
+                "->": (not a.value) or b.value,
+                "<->": a.value == b.value,
+            }[expr.op]
+        )
     for const, other, first in ((a, b, True), (b, a, False)):
         if not isinstance(const, Const):
             continue

@@ -197,8 +197,17 @@ def frama_c(t: Target) -> CheckOutcome:
     )
 
 
-CPPCHECK = ("cppcheck", "--std=c99", "--enable=all", "--inconclusive", "--error-exitcode=1", "--quiet",
-            "--suppress=missingIncludeSystem", "--suppress=unusedFunction", "--addon=misra")  # fmt: skip
+CPPCHECK = (
+    "cppcheck",
+    "--std=c99",
+    "--enable=all",
+    "--inconclusive",
+    "--error-exitcode=1",
+    "--quiet",
+    "--suppress=missingIncludeSystem",
+    "--suppress=unusedFunction",
+    "--addon=misra",
+)
 
 
 def cppcheck(t: Target) -> CheckOutcome:

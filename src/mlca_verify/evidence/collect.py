@@ -137,8 +137,16 @@ def document(ev: Evidence) -> dict[str, Any]:
 
 def proof(r: Result) -> dict[str, Any]:
     cx = r.counterexample.to_json() if r.counterexample else None
-    return {"property": r.prop, "kind": r.kind, "verdict": r.verdict, "expected": r.expected, "ok": r.ok,
-            "cite": r.cite, "detail": r.detail, "counterexample": cx}  # fmt: skip
+    return {
+        "property": r.prop,
+        "kind": r.kind,
+        "verdict": r.verdict,
+        "expected": r.expected,
+        "ok": r.ok,
+        "cite": r.cite,
+        "detail": r.detail,
+        "counterexample": cx,
+    }
 
 
 def _files(paths: list[Path]) -> list[dict[str, str]]:
@@ -214,8 +222,19 @@ def traceability(ev: Evidence) -> list[dict[str, Any]]:
         tests = ["conform: exhaustive", "conform: sequences", "conform: frama-c-wp"] if needle else []
         if r.verdict == "violated" and prop == r.prop and r.kind in ("invariant", "liveness"):
             tests.append("check --emit-tests: replays the counterexample")
-        rows.append({"cite": cite, "element": element, "text": text, "property": prop, "verdict": r.verdict,
-                     "expected": r.expected, "ok": r.ok, "code": code, "tests": tests})  # fmt: skip
+        rows.append(
+            {
+                "cite": cite,
+                "element": element,
+                "text": text,
+                "property": prop,
+                "verdict": r.verdict,
+                "expected": r.expected,
+                "ok": r.ok,
+                "code": code,
+                "tests": tests,
+            }
+        )
     return rows
 
 
@@ -232,13 +251,25 @@ def readings(ev: Evidence) -> dict[str, Any]:
         regions = compare(canonical, m, all_regions=True).regions if m is not canonical else []
         marked = frozenset((r.state, o.transition) for r in regions for o in (*r.left, *r.right) if o.transition)
         ours = frozenset((s, t) for s, t in marked if any(x.id == t for x in m.transitions))
-        machines.append({
-            "path": reading.path, "machine": m.name, "cite": m.cite, "semantics": m.semantics, "otherwise": m.otherwise,
-            "dot": to_dot(m, ours),
-            "differences": [{"state": r.state, "when": cube_text(r.cube),
-                             "canonical": [_outcome(o) for o in r.left], "this": [_outcome(o) for o in r.right]}
-                            for r in regions],
-        })  # fmt: skip
+        machines.append(
+            {
+                "path": reading.path,
+                "machine": m.name,
+                "cite": m.cite,
+                "semantics": m.semantics,
+                "otherwise": m.otherwise,
+                "dot": to_dot(m, ours),
+                "differences": [
+                    {
+                        "state": r.state,
+                        "when": cube_text(r.cube),
+                        "canonical": [_outcome(o) for o in r.left],
+                        "this": [_outcome(o) for o in r.right],
+                    }
+                    for r in regions
+                ],
+            }
+        )
     return {"canonical": canonical.name, "machines": machines}
 
 
@@ -267,8 +298,13 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     )
     node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
     node("S1", "strategy", "Argue over the specification, the generated code, and closed-loop behaviour", "G1")
-    node("G2", "goal", "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
-         "S1", all(r.ok for r in ev.results))  # fmt: skip
+    node(
+        "G2",
+        "goal",
+        "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
+        "S1",
+        all(r.ok for r in ev.results),
+    )
     for k, r in enumerate(ev.results, 1):
         node(
             f"Sn2.{k}",

@@ -137,8 +137,10 @@ def later_elsewhere(
     check_size(machine, state, guards)
     tables = tables_for(machine, guards, vars_)
     if tables is None:
-        return [_any([e for u, e in zip(out[i + 1 :], encoded[i + 1 :], strict=True) if u.target != t.target])
-                for i, t in enumerate(out)]  # fmt: skip
+        return [
+            _any([e for u, e in zip(out[i + 1 :], encoded[i + 1 :], strict=True) if u.target != t.target])
+            for i, t in enumerate(out)
+        ]
     later: dict[str, int] = {}
     result = []
     for t in reversed(out):
