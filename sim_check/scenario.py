@@ -154,7 +154,7 @@ def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> 
 
 
 def _number(
-    given: Any, limits: tuple[float, float], at: Loc, what: str, *, continuous: bool, as_float: bool
+    given: object, limits: tuple[float, float], at: Loc, what: str, *, continuous: bool, as_float: bool
 ) -> int | float:
     """A count (int) or a continuous quantity (int or float), finite and within `limits`; a float where the
     default is one (so that the files written for a scenario stay what they were)."""
@@ -172,7 +172,7 @@ def _number(
     return float(given) if as_float else given
 
 
-def _text(key: str, given: Any, at: Loc, what: str) -> str:
+def _text(key: str, given: object, at: Loc, what: str) -> str:
     if not isinstance(given, str):
         raise SpecError(at, f"{what} must be a string, got {_show(given)}")
     if key == "route" and (bad := re.search(r"[<>&\"'\x00-\x1f]", given.replace("\t", " "))):
@@ -180,7 +180,7 @@ def _text(key: str, given: Any, at: Loc, what: str) -> str:
     return given
 
 
-def _lane_name(given: Any, at: Loc, what: str) -> str:
+def _lane_name(given: object, at: Loc, what: str) -> str:
     """`middle` or a lane index (an integer, or its digits as a string), checked against the lanes later."""
     lane = given if isinstance(given, str) else str(given) if type(given) is int and 0 <= given < 100 else None
     if lane is None or not re.fullmatch(r"middle|[0-9]{1,2}", lane):
@@ -209,7 +209,7 @@ def _with_osm(scenario: Scenario, path: Path, where: Locator) -> Scenario:
     return replace(scenario, road=replace(road, osm=str(osm)))
 
 
-def _show(value: Any) -> str:
+def _show(value: object) -> str:
     """A value as an error shows it: at most 40 characters (an integer of thousands of digits included)."""
     if isinstance(value, int) and abs(value) >= 10**40:
         return "an integer of more than 40 digits"

@@ -23,7 +23,9 @@ import tempfile
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
+from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +34,8 @@ from sim_check.db import Owner, ResultsDB
 from sim_check.results import Job, RunResult
 from sim_check.runner import run_once
 from sim_check.scenario import Scenario
+
+ProgressHook = Callable[[RunResult], None]  # told of every run that ends
 
 WORK_PREFIX = "mlca-sim-work-"  # then the owner's pid and start time: mlca-sim-work-PID-STARTED-XXXXXXXX
 STALE = re.compile(re.escape(WORK_PREFIX) + r"(\d+)-(\d*)-")
@@ -48,7 +52,9 @@ def _die_with(parent: int) -> None:
         os._exit(1)
 
 
-def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any, parent: int) -> None:
+def _worker(
+    scenario: Scenario, work: Path, jobs: mp.Queue[Job | None], results: mp.Queue[tuple[Job, RunResult]], parent: int
+) -> None:
     _die_with(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle: it stops the workers
     tempfile.tempdir = str(work)  # the worker's own temporary files (the compiled controller) go with its folder
@@ -67,8 +73,8 @@ def _worker(scenario: Scenario, work: Path, jobs: Any, results: Any, parent: int
 
 @dataclass
 class Slot:
-    process: Any
-    jobs: Any
+    process: BaseProcess
+    jobs: mp.Queue[Job | None]
     job: Job | None = None
     since: float = 0.0
 
@@ -114,7 +120,7 @@ class Sweep:
             process.start()
         return Slot(process, jobs)
 
-    def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
+    def run(self, todo: list[Job], progress: ProgressHook) -> list[RunResult]:
         """Run `todo` and store each result as it comes; the leases of runs left undone are released."""
         self.work = work_folder()
         slots: list[Slot] = []
@@ -128,7 +134,7 @@ class Sweep:
             self.work = None
             self.database.release()
 
-    def _run(self, todo: list[Job], progress: Any, slots: list[Slot]) -> list[RunResult]:
+    def _run(self, todo: list[Job], progress: ProgressHook, slots: list[Slot]) -> list[RunResult]:
         pending = list(todo)
         slots.extend(self.start_slot() for _ in range(min(self.jobs_n, len(pending))))
         finished: list[RunResult] = []
@@ -160,7 +166,7 @@ class Sweep:
             return f"no result within {self.timeout_s:.0f} s: the simulator hung"
         return ""
 
-    def collect(self, slots: list[Slot], finished: list[RunResult], progress: Any) -> None:
+    def collect(self, slots: list[Slot], finished: list[RunResult], progress: ProgressHook) -> None:
         try:
             job, result = self.results.get(timeout=0.2)
         except queue.Empty:
@@ -170,7 +176,7 @@ class Sweep:
                 slot.job = None
         self.finish(result, finished, progress)
 
-    def finish(self, result: RunResult, finished: list[RunResult], progress: Any) -> None:
+    def finish(self, result: RunResult, finished: list[RunResult], progress: ProgressHook) -> None:
         key = (result.controller, result.avs, result.seed)
         if key in self.finished_keys:  # a late answer from a worker already given up on
             return
@@ -212,7 +218,7 @@ class RaySweep(Sweep):
         self.parallel = max(1, int(resources.get("CPU", 1)))
         self.remote = ray.remote(max_retries=0)(_ray_job)
 
-    def run(self, todo: list[Job], progress: Any) -> list[RunResult]:
+    def run(self, todo: list[Job], progress: ProgressHook) -> list[RunResult]:
         pending = list(todo)
         flight: dict[Any, tuple[Job, float]] = {}
         finished: list[RunResult] = []

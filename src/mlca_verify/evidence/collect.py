@@ -24,7 +24,7 @@ from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
 from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
-from mlca_verify.logic.results import Result
+from mlca_verify.logic.results import Outcome, Result
 from mlca_verify.model import Machine, show
 from mlca_verify.report import cube_text
 from mlca_verify.spec import LoadedSpec, load_spec
@@ -273,7 +273,7 @@ def readings(ev: Evidence) -> dict[str, Any]:
     return {"canonical": canonical.name, "machines": machines}
 
 
-def _outcome(o: Any) -> str:
+def _outcome(o: Outcome) -> str:
     return "no transition" if o.transition is None else f"{o.transition} -> {o.next}"
 
 

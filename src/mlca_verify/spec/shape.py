@@ -81,7 +81,7 @@ def _fits(kind: str, value: object) -> bool:
     }[kind]
 
 
-def _suggest(key: str, allowed: set[str] | Mapping[str, Any]) -> str:
+def _suggest(key: str, allowed: set[str] | Mapping[str, object]) -> str:
     close = difflib.get_close_matches(key, sorted(allowed), n=1)
     return f" (did you mean '{close[0]}'?)" if close else f" (allowed: {', '.join(sorted(allowed))})"
 
