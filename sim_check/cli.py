@@ -1,5 +1,6 @@
 """`mlca-sim`: closed-loop runs and sweeps. Exit 0 when every run finished with no monitor violation, 1 when a
-run failed or the monitor fired, 2 on bad input (one line on stderr)."""
+run failed or the monitor fired, 2 on bad input (one line on stderr), 3 on an internal error (one line; the
+traceback with --debug), 130 when interrupted (mlca_verify.cli_base)."""
 
 from __future__ import annotations
 

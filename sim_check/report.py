@@ -309,9 +309,12 @@ Row = tuple[str, ...]  # the cells of one table row, formatted
 
 
 def cell(text: str) -> str:
-    """Text from a results database for one Markdown table cell: one line, its backslashes kept literal and its
-    '|' unable to end the cell (plain names pass unchanged)."""
-    return one_line(text.replace("\\", "\\\\").replace("|", "\\|"))
+    """Text from a results database for one Markdown table cell: one line, its backslashes kept literal, its '|'
+    unable to end the cell, and no HTML, code span or link (plain names and numbers pass unchanged)."""
+    text = text.replace("\\", "\\\\").replace("|", "\\|")
+    for char in "<>`&":
+        text = text.replace(char, "\\" + char)
+    return one_line(text.replace("](", "]\\("))
 
 
 def _environment() -> jinja2.Environment:
@@ -371,7 +374,7 @@ def _mechanism_rows(data: Data) -> list[dict[str, object]]:
         if not g.av_count:
             continue
         n = g.av_count
-        machine = SETUPS[controller].kind == "fsm"
+        machine = controller in SETUPS and SETUPS[controller].kind == "fsm"  # a name this version does not know
         rows.append(
             {
                 "controller": label(controller),

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.errors import Loc, SpecError, ToolError
+from mlca_verify.files import read_regular
 from mlca_verify.spec.locate import Locator
 
 PAPER = Path(__file__).with_name("paper.toml")
@@ -98,13 +99,7 @@ def load_scenario(path: Path | None = None) -> Scenario:
 
 
 def _read(path: Path) -> str:
-    try:
-        size = path.stat().st_size
-        data = path.read_bytes() if size <= MAX_SCENARIO_BYTES else b""
-    except OSError as err:
-        raise SpecError(Loc(str(path), 1, 1), f"cannot read scenario: {err.strerror or err}") from None
-    if size > MAX_SCENARIO_BYTES:
-        raise SpecError(Loc(str(path), 1, 1), f"scenario file of {size} bytes (at most {MAX_SCENARIO_BYTES})")
+    data = read_regular(path, MAX_SCENARIO_BYTES, "scenario")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:

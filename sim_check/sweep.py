@@ -71,6 +71,14 @@ def _worker(
         results.put((job, result))
 
 
+def _retire(slot: Slot) -> None:
+    """Kill a broken worker and reap it, and close its job queue (no zombie, pipe or feeder thread is left)."""
+    slot.process.kill()
+    slot.process.join(timeout=10)
+    slot.jobs.close()
+    slot.jobs.cancel_join_thread()
+
+
 @dataclass
 class Slot:
     process: BaseProcess
@@ -149,7 +157,7 @@ class Sweep:
                 if reason:
                     controller, avs, seed = slot.job  # type: ignore[misc]
                     self.finish(RunResult(controller, avs, seed, status="failed", reason=reason), finished, progress)
-                    slot.process.kill()
+                    _retire(slot)
                     slots[k] = self.start_slot()
         for slot in slots:
             slot.jobs.put(None)

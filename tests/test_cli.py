@@ -203,3 +203,42 @@ def test_another_machines_evidence_shows_no_mlca_readings(tmp_path: Path) -> Non
         "spec/paper/figure.toml",
         "spec/paper/prose.toml",
     ]
+
+
+def test_a_closed_output_pipe_ends_quietly_with_exit_0() -> None:
+    specs = ["spec/mlca.toml"] * 20
+    done = subprocess.run(
+        f"{sys.executable} -m mlca_verify check {' '.join(specs)} | head -c 10 > /dev/null; echo ${{PIPESTATUS[0]}}",
+        shell=True,
+        executable="/bin/bash",
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.stdout.strip() == "0", done.stderr
+    assert "Traceback" not in done.stderr and "error" not in done.stderr
+
+
+def test_a_spec_path_with_control_characters_is_printed_escaped(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec = tmp_path / "e\x1b[31mvil.toml"
+    spec.write_text((ROOT / "spec" / "mlca.toml").read_text())
+    assert main(["check", str(spec), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "e\\x1b[31mvil.toml" in out
+
+
+def test_gen_replaces_a_generated_file_that_is_not_utf8(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "g"
+    assert main(["gen", "spec/mlca.toml", "--out", str(out)]) == 0
+    (out / "python" / "mlca_fsm.py").write_bytes(b"\xff\xfe broken")
+    assert main(["gen", "spec/mlca.toml", "--out", str(out), "--check"]) == 1
+    assert main(["gen", "spec/mlca.toml", "--out", str(out)]) == 0
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_evidence_takes_allow_outside() -> None:
+    args = cli._parser().parse_args(["evidence", "spec/mlca_r.toml", "--out", "x", "--allow-outside"])
+    assert args.allow_outside

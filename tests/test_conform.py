@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import tempfile
 from dataclasses import replace
@@ -173,3 +174,16 @@ def test_hand_edit_of_generated_code_makes_conform_exit_1(tmp_path: Path, capsys
     printed = capsys.readouterr().out
     assert "up-to-date  FAIL  c/mlca_fsm.c differs from what the spec and templates produce: run" in printed
     assert "exhaustive  FAIL" in printed
+
+
+def test_input_names_that_are_macros_of_pythons_headers_still_build(tmp_path: Path) -> None:
+    text = (ROOT / "spec" / "mlca.toml").read_text()
+    for old, new in (("N", "EINVAL"), ("W", "INT_MAX")):
+        text = re.sub(rf"\b{old}\b", new, text)
+    spec_file = tmp_path / "macro.toml"
+    spec_file.write_text(text)
+    spec = load_spec(spec_file, compare=False)
+    out = tmp_path / "generated"
+    write(generate(spec, out), out)
+    result = conform(spec, out, ["compile", "exhaustive"], quiet, sequences=10)
+    assert result.ok, [o.detail for o in result.outcomes]

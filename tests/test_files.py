@@ -92,3 +92,12 @@ def test_json_to_dev_stdout_reaches_the_output(capfd: pytest.CaptureFixture[str]
     assert mlca_cli.main(["check", spec, "--only", "A3", "--quiet", "--json", "/dev/stdout"]) == 0
     out = capfd.readouterr().out
     assert '"schema": "mlca-verify.check/' in out
+
+
+def test_a_rewritten_file_keeps_its_permissions(tmp_path: Path) -> None:
+    target = tmp_path / "private.json"
+    target.write_text("old\n")
+    target.chmod(0o600)
+    write_atomic(target, "new\n")
+    assert target.read_text() == "new\n"
+    assert target.stat().st_mode & 0o777 == 0o600

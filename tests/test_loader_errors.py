@@ -310,3 +310,18 @@ def test_cli_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["chek"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("mlca-verify: error: argument command: invalid choice: 'chek'")
+
+
+def test_a_name_of_the_contract_language_is_refused() -> None:
+    assert error_of(GOOD.replace("y = {", "boolean = {")) == (
+        "toy.toml:9:1: error: input name 'boolean' is a word of ACSL, the generated C's contract language"
+    )
+
+
+def test_the_python_attribute_names_cover_this_python() -> None:
+    from enum import IntEnum
+
+    from mlca_verify.spec.names import PYTHON_ATTRIBUTES
+
+    here = {n for source in (int, type, IntEnum) for n in dir(source) if not n.startswith("_")}
+    assert here <= PYTHON_ATTRIBUTES

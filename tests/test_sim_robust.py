@@ -518,8 +518,14 @@ def test_a_huge_scenario_file_is_refused_unread(tmp_path: Path) -> None:
     path = _scenario(tmp_path, "")
     with path.open("wb") as f:
         f.truncate(50_000_000)
-    with pytest.raises(SpecError, match=r"s\.toml:1:1: error: scenario file of 50000000 bytes \(at most 1000000\)"):
+    with pytest.raises(UsageError, match=r"s\.toml: error: scenario larger than 1,000,000 bytes"):
         load_scenario(path)
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/null"])
+def test_a_scenario_that_is_not_a_regular_file_is_refused_unread(device: str) -> None:
+    with pytest.raises(UsageError, match=f"{device}: error: cannot read scenario: not a regular file"):
+        load_scenario(Path(device))
 
 
 @pytest.mark.parametrize(

@@ -12,6 +12,7 @@ import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from mlca_verify import __version__, ci_formats, cli_base, report
 from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser
@@ -22,6 +23,7 @@ from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import ToolError, UsageError
+from mlca_verify.escape import terminal
 from mlca_verify.evidence import ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import write_atomic
@@ -85,6 +87,7 @@ def _parser() -> argparse.ArgumentParser:
     evidence = sub.add_parser("evidence", help="write a self-contained safety-case bundle (evidence.json, index.html)")
     evidence.add_argument("spec", metavar="SPEC", help="the spec of the generated controller")
     evidence.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    _allow_outside(evidence)
     evidence.add_argument("--db", metavar="RESULTS", help="closed-loop results database (SQLite) to include")
     evidence.add_argument(
         "--generated", default="generated", metavar="DIR", help="where the code is (default: generated)"
@@ -98,6 +101,12 @@ def _parser() -> argparse.ArgumentParser:
         "spec/paper/*.toml; for another spec: none)",
     )
     return parser
+
+
+def say(*parts: object, **options: Any) -> None:
+    """print, with spec text (paths, names, cites) kept to visible characters: no control sequence reaches the
+    terminal; line breaks are kept."""
+    print(*("\n".join(terminal(line) for line in str(part).split("\n")) for part in parts), **options)
 
 
 def _allow_outside(command: argparse.ArgumentParser) -> None:
@@ -137,8 +146,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         results = _select(check_all(spec.machine, args.timeout_ms), args.only)
         checked.append((spec, results))
         if not args.quiet:
-            print(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names))
-        print(f"{spec.path}: {report.summary_text(results)}\n")
+            say(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names))
+        say(f"{spec.path}: {report.summary_text(results)}\n")
     if args.json:
         write_json(args.json, report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
     for_ci = [(s.path, s.machine, r) for s, r in checked]
@@ -154,30 +163,30 @@ def cmd_check(args: argparse.Namespace) -> int:
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
     for spec, results in checked:
         if spec.machine.semantics != "first-match":
-            print(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
+            say(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
             continue
         try:
             written = emit(spec, results, generated, out)
         except OSError as err:
             raise UsageError(f"{out}: error: cannot write tests: {err.strerror or err}") from None
         for path in written:
-            print(f"wrote {path}")
+            say(f"wrote {path}")
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
     old, new = (load_spec(p, confine=not args.allow_outside) for p in (args.left, args.right))
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
-    print(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
-    print(report.regression_text(changes, transition_changes(old.machine, new.machine)))
+    say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
+    say(report.regression_text(changes, transition_changes(old.machine, new.machine)))
     found = compare(old.machine, new.machine, args.timeout_ms, all_regions=True)
     names = old.machine.input_names + tuple(n for n in new.machine.input_names if n not in old.machine.input_names)
-    print(report.diff_text(old.machine.name, new.machine.name, found, names))
+    say(report.diff_text(old.machine.name, new.machine.name, found, names))
     regressions = [c.prop for c in changes if c.regression]
     if regressions:
         noun = "regression" if len(regressions) == 1 else "regressions"
-        print(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
+        say(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
         return EXIT_FINDING
-    print(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
+    say(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
     return EXIT_OK
 
 
@@ -212,11 +221,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
     if args.check:
         problems = drift(files, out)
         for d in problems:
-            print(f"{out / d.path}: {d.problem}")
+            say(f"{out / d.path}: {d.problem}")
         if problems:
-            print(f"{len(problems)} generated files out of date: run `mlca-verify gen` and commit the result")
+            say(f"{len(problems)} generated files out of date: run `mlca-verify gen` and commit the result")
             return EXIT_FINDING
-        print(f"{len(files)} generated files up to date in {out}/")
+        say(f"{len(files)} generated files up to date in {out}/")
         return EXIT_OK
     writable_folder(out)
     if taken := foreign(files, out):
@@ -227,7 +236,7 @@ def cmd_gen(args: argparse.Namespace) -> int:
             "--out folders)"
         )
     for path, changed in write(files, out):
-        print(f"{'wrote' if changed else 'unchanged'} {path}")
+        say(f"{'wrote' if changed else 'unchanged'} {path}")
     return EXIT_OK
 
 
@@ -237,7 +246,7 @@ def _say_unexpected(spec: LoadedSpec) -> None:
     unexpected = [r.prop for r in check_all(spec.machine) if not r.ok]
     if unexpected:
         listed = ", ".join(unexpected[:5]) + (", ..." if len(unexpected) > 5 else "")
-        print(
+        say(
             f"  note: the spec has {len(unexpected)} unexpected verdicts ({listed}; see `mlca-verify check`): "
             "a failing check below may come from the spec, not from the generated code"
         )
@@ -251,20 +260,20 @@ def cmd_conform(args: argparse.Namespace) -> int:
     specs = [load_spec(p, compare=False) for p in args.specs]
     results = []
     for spec in specs:
-        print(f"{spec.path} ({spec.machine.name})")
+        say(f"{spec.path} ({spec.machine.name})")
         _say_unexpected(spec)
         width = max(len(n) for n in ["up-to-date", *names])
 
         def show(outcome: CheckOutcome, width: int = width) -> None:
             lines = outcome.detail.splitlines() or [""]
             status = "pass" if outcome.ok else "FAIL"
-            print(f"  {outcome.name.ljust(width)}  {status}  {lines[0]}", flush=True)
+            say(f"  {outcome.name.ljust(width)}  {status}  {lines[0]}", flush=True)
             for line in lines[1:]:
-                print(f"  {'':{width}}        {line}")
+                say(f"  {'':{width}}        {line}")
 
         results.append(conform(spec, Path(args.generated), names, show, sequences=args.sequences))
         passed = sum(o.ok for o in results[-1].outcomes)
-        print(f"{spec.path}: {passed} of {len(results[-1].outcomes)} checks passed\n")
+        say(f"{spec.path}: {passed} of {len(results[-1].outcomes)} checks passed\n")
     if args.json:
         write_json(args.json, {"schema": "mlca-verify.conform/1", "specs": [r.to_json() for r in results]})
     return EXIT_OK if all(r.ok for r in results) else EXIT_FINDING
@@ -304,10 +313,8 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     if db is not None and not db.is_file():
         raise UsageError(f"{db}: error: results database not found")
     writable_folder(Path(args.out))
-    print(
-        f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True
-    )
-    spec = load_spec(args.spec)
+    say(f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True)
+    spec = load_spec(args.spec, confine=not args.allow_outside)
     runs = None
     if db is not None:  # read through the results database's API, before the long work starts
         try:
@@ -322,8 +329,8 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations)
     ev = collect(spec, readings, Path(args.generated), runs, evidence_now())
     for path in write_bundle(ev, Path(args.out)):
-        print(f"wrote {path}")
-    print("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")
+        say(f"wrote {path}")
+    say("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")
     return EXIT_OK if ev.ok else EXIT_FINDING
 
 

@@ -50,6 +50,8 @@ def run_guarded(
     except MlcaError as err:
         _say(str(err))
         return EXIT_USAGE
+    except BrokenPipeError:  # the reader went away: `entry` ends quietly
+        raise
     except OSError as err:  # a file or folder the user named that cannot be read or written
         _say(_os_error(err))
         return EXIT_USAGE

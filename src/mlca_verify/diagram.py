@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from xml.sax.saxutils import escape, quoteattr
 
-from mlca_verify.escape import one_line, printable, xml_comment, xml_text
+from mlca_verify.escape import one_line, terminal, xml_comment, xml_text
 from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, show
 
 FORMATS = ("dot", "mermaid", "scxml")
@@ -59,8 +59,9 @@ def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> s
 
 
 def _dot_str(text: str) -> str:
-    """A DOT string: backslashes and quotes escaped, newlines as DOT's line breaks, other controls as escapes."""
-    lines = (printable(line.replace("\\", "\\\\").replace('"', '\\"')) for line in text.split("\n"))
+    """A DOT string (UTF-8): backslashes and quotes escaped, newlines as DOT's line breaks, other control
+    characters as visible escapes; printable Unicode kept."""
+    lines = (terminal(line.replace("\\", "\\\\").replace('"', '\\"')) for line in text.split("\n"))
     return '"' + "\\n".join(lines) + '"'
 
 

@@ -4,7 +4,7 @@ generated C, each replaying the trace and failing while the defect is there.
 Only invariant and liveness violations of machines that have generated code are emitted (the other checks are
 about the spec itself: a nondeterministic or gappy machine has no code to test). Each test can be pointed at
 another machine with the same state and input names (a repair, say): Python through the environment variable
-MLCA_FSM (a path to a generated module), C through -DFSM_HEADER, -DFSM_PREFIX and -DFSM_MACRO.
+<MACHINE>_FSM (a path to a generated module), C through -DFSM_HEADER, -DFSM_PREFIX and -DFSM_MACRO.
 """
 
 from __future__ import annotations

@@ -91,11 +91,6 @@ def one_line(text: str) -> str:
     return printable(text)
 
 
-def markdown(text: str) -> str:
-    """Inline Markdown text: one line, and every character Markdown or HTML gives a meaning backslash-escaped."""
-    return re.sub(r"([\\`*_{}\[\]()<>#+\-!|~&])", r"\\\1", printable(text))
-
-
 def terminal(text: str) -> str:
     """Text for a terminal line: printable characters kept (non-ASCII letters included), control and format
     characters (escape sequences, newlines) as visible escapes."""

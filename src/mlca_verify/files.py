@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import os
 import stat
+import tempfile
 from pathlib import Path
+
+from mlca_verify.errors import UsageError
 
 _SPECIAL_TREES = ("/dev/", "/proc/")  # /dev/stdout and /proc/self/fd/N name open streams, not files to replace
 
@@ -32,11 +35,45 @@ def write_atomic(path: Path, data: str | bytes) -> None:
             out.write(payload)
         return
     target = Path(os.path.realpath(path))
-    temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    fd, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")  # O_EXCL: no link
+    temporary = Path(name)
     try:
-        with open(temporary, "wb") as out:
+        with os.fdopen(fd, "wb") as out:
             out.write(payload)
+        os.chmod(temporary, _mode_for(target))
         os.replace(temporary, target)
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def _mode_for(target: Path) -> int:
+    """The permissions the file keeps (an existing one's), or those a new file gets under the umask."""
+    try:
+        return stat.S_IMODE(os.stat(target).st_mode)
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
+def read_regular(path: Path, limit: int, what: str) -> bytes:
+    """The bytes of the regular file `path`, of at most `limit` bytes; anything else (missing, a FIFO, a device
+    such as /dev/zero, too large, a NUL byte in the name) is a one-line `UsageError` naming `what` it is, read
+    no further than `limit` bytes and never blocking."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except ValueError:
+        raise UsageError(f"{str(path)!r}: error: cannot read {what}: the name holds a NUL byte") from None
+    except OSError as err:
+        raise UsageError(f"{path}: error: cannot read {what}: {err.strerror or err}") from None
+    with os.fdopen(fd, "rb") as file:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise UsageError(f"{path}: error: cannot read {what}: not a regular file")
+        try:
+            data = file.read(limit + 1)
+        except OSError as err:
+            raise UsageError(f"{path}: error: cannot read {what}: {err.strerror or err}") from None
+    if len(data) > limit:
+        raise UsageError(f"{path}: error: {what} larger than {limit:,} bytes")
+    return data

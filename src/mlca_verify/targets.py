@@ -137,16 +137,23 @@ def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
     """Build the generated C of `layout` with its adapter into `build` and import it as the module `name`."""
     from mlca_verify.codegen.render import render_template
 
-    adapter = build / f"{name}.c"
-    text = render_template("c_extension.c.j2", m=ir, extension=name, holds=hex(HOLDS))
-    adapter.write_text(text, encoding="utf-8")
+    sources = []
+    for template, stem in (("c_extension.c.j2", name), ("c_extension_bits.c.j2", f"{ir.module}_ext_bits")):
+        source = build / f"{stem}.c"
+        source.write_text(render_template(template, m=ir, extension=name, holds=hex(HOLDS)), encoding="utf-8")
+        sources.append(str(source))
     library = build / f"{name}.so"
-    c_dir = layout.c_source.parent
-    include = ("-I", str(c_dir), "-I", str(python_headers()), str(adapter))
+    include = ("-I", str(layout.c_source.parent), "-I", str(python_headers()), *sources)
     ran = build_shared(layout.c_source, library, include)
     if ran.returncode != 0:
-        raise ToolError(f"error: cannot build the generated C of {layout.module}: {ran.output.strip()}")
+        raise ToolError(f"error: cannot build the generated C of {layout.module}: {_first_error(ran.output)}")
     return CMachine(import_extension(library, name))
+
+
+def _first_error(output: str) -> str:
+    """The compiler's first error line (the one that says what is wrong), or its first line."""
+    lines = output.strip().splitlines()
+    return next((line for line in lines if "error:" in line), lines[0] if lines else "no output")
 
 
 def import_extension(library: Path, name: str) -> ModuleType:

@@ -53,7 +53,7 @@ def write(files: dict[str, str], out_dir: Path) -> list[tuple[Path, bool]]:
     for rel in sorted(files):
         path = out_dir / rel
         path.parent.mkdir(parents=True, exist_ok=True)
-        changed = not path.exists() or path.read_text(encoding="utf-8") != files[rel]
+        changed = not path.exists() or path.read_bytes() != files[rel].encode("utf-8")
         if changed:
             write_atomic(path, files[rel])
         result.append((path, changed))
@@ -95,7 +95,7 @@ def drift(files: dict[str, str], out_dir: Path) -> list[Drift]:
         path = out_dir / rel
         if not path.exists():
             found.append(Drift(rel, "missing"))
-        elif path.read_text(encoding="utf-8") != files[rel]:
+        elif path.read_bytes() != files[rel].encode("utf-8"):
             found.append(Drift(rel, "differs from what the spec and templates produce"))
     for path in sorted(out_dir.glob(GENERATED_GLOB)):
         rel = path.relative_to(out_dir).as_posix()

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import hashlib
-import os
 import re
-import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from mlca_verify.errors import Loc, SpecError, UsageError
+from mlca_verify.errors import Loc, SpecError
+from mlca_verify.files import read_regular
 from mlca_verify.model import Machine
 from mlca_verify.spec.locate import Locator
 from mlca_verify.spec.meaning import LoadOther, MeaningChecker
@@ -52,28 +51,8 @@ def load_text(text: str, file: str, load_other: LoadOther | None = None) -> Mach
     return MeaningChecker(doc, where, load_other).build()
 
 
-def _read_bytes(path: Path) -> bytes:
-    """The bytes of a regular file of at most `MAX_SPEC_BYTES` (a FIFO or a device is refused, not read)."""
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    except ValueError:  # a NUL byte in the name
-        raise UsageError(f"{str(path)!r}: error: cannot read spec: the name holds a NUL byte") from None
-    except OSError as err:
-        raise UsageError(f"{path}: error: cannot read spec: {err.strerror or err}") from None
-    with os.fdopen(fd, "rb") as file:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise UsageError(f"{path}: error: cannot read spec: not a regular file")
-        data = file.read(MAX_SPEC_BYTES + 1)
-    if len(data) > MAX_SPEC_BYTES:
-        raise UsageError(f"{path}: error: spec larger than {MAX_SPEC_BYTES // 1_000_000} MB")
-    return data
-
-
 def _read(path: Path) -> tuple[str, str]:
-    try:
-        data = _read_bytes(path)
-    except OSError as err:
-        raise UsageError(f"{path}: error: cannot read spec: {err.strerror or err}") from None
+    data = read_regular(path, MAX_SPEC_BYTES, "spec")
     try:
         return data.decode("utf-8"), hashlib.sha256(data).hexdigest()
     except UnicodeDecodeError as err:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import keyword
 import re
-from enum import IntEnum
 
 NAME_LIMIT = 64  # characters in a state, input or property name
 MAX_STATES = 1_000  # the explicit engine and the generated switch grow with them
@@ -36,13 +35,22 @@ C_HEADER_MACROS = frozenset(
 )
 # Macros that emitted C tests define around the generated header.
 EMITTED_TEST_MACROS = frozenset("CAT CAT2 FSM ST CHECK_FROM STEP_COUNT STEPS FSM_HEADER FSM_PREFIX FSM_MACRO".split())
+# Words of ACSL, the contract language of the generated C, that Frama-C's parser reads as keywords in a contract.
+ACSL_WORDS = frozenset(
+    "boolean integer real let logic predicate lemma axiom axiomatic inductive global ghost model type assigns "
+    "ensures requires assumes behavior behaviors complete disjoint decreases terminates loop invariant variant "
+    "allocates frees reads writes exits breaks continues returns label slice module contract function include "
+    "pragma assert check admit".split()
+)
 EXPR_WORDS = frozenset({"and", "or", "not", "true", "false", "state", "in"})
 # The generated header defines <MACHINE>_<STATE> for every state, <MACHINE>_INITIAL and the guard <MACHINE>_FSM_H.
 GENERATED_STATE_SUFFIXES = frozenset({"INITIAL", "FSM_H"})
-# Public attributes of the classes that hold states (an IntEnum) and inputs (a dataclass) in generated Python.
+# Public attributes of the classes that hold states (an IntEnum) and inputs (a dataclass) in generated Python, on
+# every Python the project supports (3.11 to 3.13; a test checks the list against the running one).
 PYTHON_ATTRIBUTES = frozenset(
-    name for source in (int, type, IntEnum) for name in dir(source) if not name.startswith("_")
-) | {"name", "value"}
+    "as_integer_ratio bit_count bit_length conjugate denominator from_bytes imag is_integer mro name numerator "
+    "real to_bytes value".split()
+)
 
 
 def _language_clash(name: str) -> str | None:
@@ -52,6 +60,8 @@ def _language_clash(name: str) -> str | None:
         return "is a C keyword or reserved name"
     if name in C_HEADER_MACROS:
         return "is a macro of the C standard headers the generated code includes"
+    if name in ACSL_WORDS:
+        return "is a word of ACSL, the generated C's contract language"
     if name in EXPR_WORDS:
         return "is a word of the expression language"
     if name.startswith(("Py", "PY")):
