@@ -193,12 +193,6 @@ def _retrying(
     )
 
 
-def connect(path: Path) -> sqlite3.Connection:
-    """The bare connection of `ResultsDB.open_for_writing`, for a tool that rebuilds a database from its rows;
-    everything else goes through `ResultsDB`. The caller closes it."""
-    return _connect(path)
-
-
 def _connect(path: Path) -> Database:
     conn = _open(path, "rw" if path.exists() else "rwc")
     try:
@@ -510,10 +504,14 @@ def _monitor_summary(conn: sqlite3.Connection, path: Path, controllers: Sequence
     return MonitorSummary(runs, failed, violations)
 
 
-def _table_rows(conn: sqlite3.Connection, table: str) -> TableRows:
-    if table not in COLUMNS and table != "violations":
+def _table_name(table: str) -> str:
+    if table not in COLUMNS and table not in ("violations", "leases"):
         raise ValueError(f"no table {table!r} in a results database")
-    cursor = conn.execute(f"SELECT * FROM {table} ORDER BY 1, 2, 3, 4")
+    return table
+
+
+def _table_rows(conn: sqlite3.Connection, table: str) -> TableRows:
+    cursor = conn.execute(f"SELECT * FROM {_table_name(table)} ORDER BY 1, 2, 3, 4")
     return TableRows(tuple(d[0] for d in cursor.description), cursor.fetchall())
 
 
@@ -598,6 +596,21 @@ class ResultsDB:
         return _retrying(
             self._conn, lambda c: _monitor_summary(c, self.path, controllers), "read the results database", "BEGIN"
         )
+
+    def column_types(self, table: str) -> dict[str, str]:
+        """The declared SQLite type of each column of `table` (to read its exported rows back)."""
+        rows = self._conn.execute(f"PRAGMA table_info({_table_name(table)})").fetchall()
+        return {name: kind for _, name, kind, *_ in rows}
+
+    def add_rows(self, table: str, rows: TableRows) -> None:
+        """Insert exported rows (as `table_rows` gives them) back, in one transaction: the comparison's committed
+        CSV files become a database again."""
+        unknown = set(rows.columns) - set(self.column_types(table))
+        if unknown:
+            raise UsageError(f"{self.path}: error: table {table} has no column {sorted(unknown)[0]!r}")
+        marks = ", ".join("?" for _ in rows.columns)
+        query = f"INSERT INTO {_table_name(table)} ({', '.join(rows.columns)}) VALUES ({marks})"
+        _retrying(self._conn, lambda c: c.executemany(query, rows.rows), "write to the results database")
 
     def table_rows(self, table: str) -> TableRows:
         """Every row of `table` (runs, av_metrics, violations or leases), ordered by its first four columns."""

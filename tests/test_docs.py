@@ -36,17 +36,15 @@ COMPARISON = ROOT / "docs" / "comparison"
 
 def _rebuild(db_path: Path) -> None:
     """The committed CSV rows back into a results database of this version's schema."""
-    conn = db.connect(db_path)
-    with conn:
+    with db.ResultsDB.open_for_writing(db_path) as results:
         for table in ("runs", "av_metrics", "violations"):
-            types = {name: kind for _, name, kind, *_ in conn.execute(f"PRAGMA table_info({table})")}
+            types = results.column_types(table)
             with (COMPARISON / f"{table}.csv").open(newline="", encoding="utf-8") as f:
                 reader = csv.reader(f)
                 header = next(reader)
                 cast = [CASTS[types[name]] for name in header]
-                rows = [[c(v) for c, v in zip(cast, row, strict=True)] for row in reader]
-            conn.executemany(f"INSERT INTO {table} VALUES ({', '.join('?' for _ in header)})", rows)
-    conn.close()
+                rows = [tuple(c(v) for c, v in zip(cast, row, strict=True)) for row in reader]
+            results.add_rows(table, db.TableRows(tuple(header), rows))
 
 
 CASTS = {
