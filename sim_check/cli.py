@@ -15,8 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
 from mlca_verify import cli_base
-from mlca_verify.cli import write_json
-from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser
+from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.db import Plan, ResultsDB

@@ -7,7 +7,6 @@ Exit codes everywhere: 0 every verdict as expected, 1 a finding, 2 bad input or 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 from collections.abc import Sequence
@@ -15,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify import __version__, ci_formats, cli_base, report
-from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser
+from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser, write_json, write_text
 from mlca_verify.codegen import drift, foreign, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import CheckOutcome
@@ -26,7 +25,6 @@ from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.escape import terminal
 from mlca_verify.evidence import ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
-from mlca_verify.files import write_atomic
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
@@ -115,17 +113,6 @@ def _allow_outside(command: argparse.ArgumentParser) -> None:
         action="store_true",
         help="let [[compare]] name specs outside the spec's folder tree and the working directory's",
     )
-
-
-def write_text(path: str, text: str) -> None:
-    try:
-        write_atomic(Path(path), text)
-    except OSError as err:
-        raise UsageError(f"{path}: error: cannot write: {err.strerror or err}") from None
-
-
-def write_json(path: str, document: object) -> None:
-    write_text(path, json.dumps(document, indent=2, sort_keys=False) + "\n")
 
 
 def _select(results: list[Result], only: str | None) -> list[Result]:

@@ -8,13 +8,16 @@ written), 3 an internal error (a bug: the traceback is printed only with `--debu
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import traceback
 from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 
 from mlca_verify.errors import MlcaError, UsageError
 from mlca_verify.escape import terminal
+from mlca_verify.files import write_atomic
 
 EXIT_OK, EXIT_FINDING, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report Ctrl-C
@@ -28,6 +31,19 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{self.prog}: error: {message}")
+
+
+def write_text(path: str, text: str) -> None:
+    """Write an output file whole (mlca_verify.files); a file that cannot be written is a one-line error."""
+    try:
+        write_atomic(Path(path), text)
+    except OSError as err:
+        raise UsageError(f"{path}: error: cannot write: {err.strerror or err}") from None
+
+
+def write_json(path: str, document: object) -> None:
+    """An output JSON document, indented, written whole."""
+    write_text(path, json.dumps(document, indent=2, sort_keys=False) + "\n")
 
 
 def _say(text: str) -> None:
