@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import jinja2
@@ -167,23 +167,18 @@ def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
 
 def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
     """Every generated file of one machine: relative path -> text."""
-    env = environment(template_dir)
-    files = {}
     layout = Layout(Path(), ir.module)
-    for kind, name in TEMPLATES.items():
-        try:
-            template = env.get_template(name)
-            files[layout.relative(kind)] = template.render(m=ir)
-        except jinja2.TemplateError as err:
-            where = f"{template_dir / name}:{getattr(err, 'lineno', None) or 1}"
-            raise CodegenError(f"{where}: error: template failed: {err}") from None
-    return files
+    return {layout.relative(kind): _render_in(template_dir, name, {"m": ir}) for kind, name in TEMPLATES.items()}
 
 
 def render_template(name: str, **values: object) -> str:
     """One shipped template rendered with `values` (spec text in them passes the environment's filters)."""
+    return _render_in(TEMPLATE_DIR, name, values)
+
+
+def _render_in(template_dir: Path, name: str, values: Mapping[str, object]) -> str:
     try:
-        return environment().get_template(name).render(**values)
+        return environment(template_dir).get_template(name).render(**values)
     except jinja2.TemplateError as err:
-        where = f"{TEMPLATE_DIR / name}:{getattr(err, 'lineno', None) or 1}"
+        where = f"{template_dir / name}:{getattr(err, 'lineno', None) or 1}"
         raise CodegenError(f"{where}: error: template failed: {err}") from None

@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
 from mlca_verify.codegen.ir import MachineIR
-from mlca_verify.codegen.render import environment
+from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.reference import Reference
 from mlca_verify.errors import ToolError
 from mlca_verify.spec import LoadedSpec
@@ -246,9 +246,7 @@ def cross_build(t: Target) -> CheckOutcome:
 
 def sanitizers(t: Target) -> CheckOutcome:
     harness = t.build / f"{t.ir.module}_harness.c"
-    harness.write_text(
-        environment().get_template("c_harness.c.j2").render(m=t.ir, extra=OUT_OF_RANGE), encoding="utf-8"
-    )
+    harness.write_text(render_template("c_harness.c.j2", m=t.ir, extra=OUT_OF_RANGE), encoding="utf-8")
     exe = t.build / f"{t.ir.module}_harness"
     flags = ("-g", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer")
     ran = run(
