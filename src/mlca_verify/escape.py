@@ -61,16 +61,21 @@ def py_comment(text: str) -> str:
     return printable(text)
 
 
+def _py_line(text: str) -> str:
+    """One line of a double-quoted Python string's body: backslashes and quotes escaped, the rest printable."""
+    return printable(text.replace("\\", "\\\\").replace('"', '\\"'))
+
+
 def py_string(text: str) -> str:
     """A double-quoted Python string literal whose value is `text`, in printable ASCII."""
-    return '"' + printable(text.replace("\\", "\\\\").replace('"', '\\"')) + '"'
+    return '"' + _py_line(text) + '"'
 
 
 def py_docstring(text: str) -> str:
     """Text inside a triple-quoted Python docstring: lines kept, backslashes and quotes escaped, every other
     control or non-ASCII character as its escape (so the docstring's value is the text itself)."""
     lines = text.replace("\r\n", "\n").split("\n")
-    return "\n".join(printable(line.replace("\\", "\\\\").replace('"', '\\"')) for line in lines)
+    return "\n".join(_py_line(line) for line in lines)
 
 
 def xml_text(text: str) -> str:
