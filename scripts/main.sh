@@ -13,7 +13,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 mkdir -p out
-.venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/paper/*.toml --json out/check.json
+.venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml spec/paper/*.toml --json out/check.json
 .venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml
 .venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml --json out/conform.json
 .venv/bin/mlca-sim sweep --matrix paper --avs 1,3 --runs 2 --jobs 2 \

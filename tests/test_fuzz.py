@@ -42,7 +42,8 @@ QUERY_TIMEOUT_MS = "2000"
 # rejection (exit 2, one line) or acceptance (0 or 1); a loader may refuse the input or handle it. Files not
 # named here are ERROR. Whenever `gen` accepts a file, the generated code must import and compile.
 # `gen` does not load the specs named in [[compare]], so a bad one there is an ERROR of `check` only.
-VALID_FILES = frozenset({"valid_toy", "compare_with_self"})
+# A string `within` is a bound over params (machines with data); "3" is the bound 3.
+VALID_FILES = frozenset({"valid_toy", "compare_with_self", "type_within_string"})
 EITHER_FILES = frozenset(
     {
         "property_id_equiv",

@@ -26,10 +26,13 @@ from mlca_verify.escape import terminal
 from mlca_verify.evidence import ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.logic import check_all, compare
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.spec.cites import uncited
+from mlca_verify.spec.meaning import WITHIN_LIMIT
 from mlca_verify.tools import run
 
 __all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
@@ -43,7 +46,14 @@ def _parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="prove every built-in check and declared property of each spec")
     check.add_argument("specs", nargs="+", metavar="SPEC", help="spec files (TOML)")
-    check.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.check/1)")
+    check.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.check/2)")
+    check.add_argument(
+        "--parametric",
+        action="store_true",
+        help="prove the properties of machines with data for every param value in its range (not only the default)",
+    )
+    check.add_argument("--depth", type=int, default=60, metavar="N", help="steps BMC searches for a counterexample")
+    check.add_argument("--require-cites", action="store_true", help="report every spec element that cites no source")
     check.add_argument("--only", metavar="IDS", help="comma-separated property names to report (others are hidden)")
     check.add_argument("--quiet", action="store_true", help="print only the one-line summary per spec")
     check.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
@@ -101,6 +111,9 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+NO_DATA_CODE = "code generation for machines with data (params, signals, variables) is not available yet"
+
+
 def say(*parts: object, **options: Any) -> None:
     """print, with spec text (paths, names, cites) kept to visible characters: no control sequence reaches the
     terminal; line breaks are kept."""
@@ -129,8 +142,14 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
 def cmd_check(args: argparse.Namespace) -> int:
     loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
+    limits = Limits(depth=max(1, min(args.depth, WITHIN_LIMIT)), timeout_ms=args.timeout_ms)
+    uncited_total = 0
     for spec in loaded:
-        results = _select(check_all(spec.machine, args.timeout_ms), args.only)
+        if args.require_cites:
+            for loc, what in uncited(spec.machine):
+                say(f"{loc}: uncited {what}")
+                uncited_total += 1
+        results = _select(check_all(spec.machine, args.timeout_ms, args.parametric, limits), args.only)
         checked.append((spec, results))
         if not args.quiet:
             say(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names))
@@ -144,11 +163,17 @@ def cmd_check(args: argparse.Namespace) -> int:
         write_json(args.sarif, ci_formats.sarif(for_ci))
     if args.emit_tests:
         _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
-    return EXIT_OK if all(r.ok for _, results in checked for r in results) else EXIT_FINDING
+    if uncited_total:
+        say(f"{uncited_total} spec elements cite no source (--require-cites)")
+    every_ok = all(r.ok for _, results in checked for r in results)
+    return EXIT_OK if every_ok and not uncited_total else EXIT_FINDING
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
     for spec, results in checked:
+        if spec.machine.has_data:
+            say(f"{spec.path}: no tests emitted: {NO_DATA_CODE}")
+            continue
         if spec.machine.semantics != "first-match":
             say(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
             continue
@@ -165,9 +190,10 @@ def cmd_diff(args: argparse.Namespace) -> int:
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
     say(report.regression_text(changes, transition_changes(old.machine, new.machine)))
-    found = compare(old.machine, new.machine, args.timeout_ms, all_regions=True)
-    names = old.machine.input_names + tuple(n for n in new.machine.input_names if n not in old.machine.input_names)
-    say(report.diff_text(old.machine.name, new.machine.name, found, names))
+    if old.machine.has_data or new.machine.has_data:
+        say("equivalence: not compared (machines with data are compared by their verdicts only)")
+    else:
+        _say_equivalence(old, new, args.timeout_ms)
     regressions = [c.prop for c in changes if c.regression]
     if regressions:
         noun = "regression" if len(regressions) == 1 else "regressions"
@@ -175,6 +201,12 @@ def cmd_diff(args: argparse.Namespace) -> int:
         return EXIT_FINDING
     say(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
     return EXIT_OK
+
+
+def _say_equivalence(old: LoadedSpec, new: LoadedSpec, timeout_ms: int) -> None:
+    found = compare(old.machine, new.machine, timeout_ms, all_regions=True)
+    names = old.machine.input_names + tuple(n for n in new.machine.input_names if n not in old.machine.input_names)
+    say(report.diff_text(old.machine.name, new.machine.name, found, names))
 
 
 def _default_specs() -> list[str]:
@@ -198,7 +230,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
     out = Path(args.out)
     files: dict[str, str] = {}
     for path in args.specs or _default_specs():
-        new = generate(load_spec(path, compare=False), out)
+        spec = load_spec(path, compare=False)
+        if spec.machine.has_data:
+            say(f"{path}: skipped: {NO_DATA_CODE}")
+            continue
+        new = generate(spec, out)
         if clash := sorted(set(new) & set(files)):
             raise UsageError(
                 f"{path}: error: its code would replace {out / clash[0]}, generated from another spec "
@@ -247,6 +283,9 @@ def cmd_conform(args: argparse.Namespace) -> int:
     specs = [load_spec(p, compare=False) for p in args.specs]
     results = []
     for spec in specs:
+        if spec.machine.has_data:
+            say(f"{spec.path}: skipped: {NO_DATA_CODE}")
+            continue
         say(f"{spec.path} ({spec.machine.name})")
         _say_unexpected(spec)
         width = max(len(n) for n in ["up-to-date", *names])
@@ -276,6 +315,8 @@ def svg_of(dot_text: str) -> str:
 
 def cmd_diagram(args: argparse.Namespace) -> int:
     machine = load_spec(args.spec, compare=False).machine
+    if machine.has_data and args.format == "scxml":
+        raise UsageError(f"{args.spec}: error: SCXML is not drawn for machines with data (use dot, mermaid or svg)")
     text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
     if args.out:
         write_text(args.out, text)
@@ -302,6 +343,8 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     writable_folder(Path(args.out))
     say(f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True)
     spec = load_spec(args.spec, confine=not args.allow_outside)
+    if spec.machine.has_data:
+        raise UsageError(f"{args.spec}: error: evidence bundles need generated code; {NO_DATA_CODE}")
     runs = None
     if db is not None:  # read through the results database's API, before the long work starts
         try:

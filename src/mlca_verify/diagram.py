@@ -10,7 +10,7 @@ from __future__ import annotations
 from xml.sax.saxutils import escape, quoteattr
 
 from mlca_verify.escape import one_line, terminal, xml_comment, xml_text
-from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, show
+from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, as_binop, show
 
 FORMATS = ("dot", "mermaid", "scxml")
 
@@ -26,7 +26,8 @@ def _edges(m: Machine) -> list[tuple[str, int, Transition]]:
 
 def _label(m: Machine, priority: int, t: Transition) -> str:
     prefix = f"{priority}. " if m.semantics == "first-match" else ""
-    return f"{prefix}{show(t.guard)}"
+    updates = "; ".join(f"{u.variable} = {show(u.expr)}" for u in t.updates)
+    return f"{prefix}{show(t.guard)}" + (f" / {updates}" if updates else "")
 
 
 def caption(m: Machine) -> str:
@@ -83,6 +84,7 @@ def js_expr(expr: Expr) -> str:
         raise ValueError("guards do not mention the state")
     if isinstance(expr, Not):
         return f"!({js_expr(expr.arg)})"
+    expr = as_binop(expr)
     a, b = js_expr(expr.left), js_expr(expr.right)
     return {"and": f"({a} && {b})", "or": f"({a} || {b})", "->": f"(!{a} || {b})", "<->": f"({a} === {b})"}[expr.op]
 

@@ -1,13 +1,15 @@
 """The machine model: frozen dataclasses, no I/O, no solver, no file format.
 
 A `Machine` is what every consumer (the z3 engine, the code generators, the simulator) reads.
-Expressions are a small AST over boolean inputs and the machine's state.
+Expressions are a small AST over names (boolean inputs, and in a machine with data also params, signals,
+variables, definitions and outputs) and the machine's state.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Literal, TypeAlias
 
 from mlca_verify.errors import Loc
@@ -30,9 +32,59 @@ class Const:
 
 @dataclass(frozen=True)
 class Var:
-    """A boolean input, by name."""
+    """A name: a boolean input (the only kind in a machine without data), or a param, signal, variable,
+    definition or output."""
 
     name: str
+
+
+@dataclass(frozen=True)
+class Num:
+    """A numeric literal, exact; `real` when written with a point or an exponent."""
+
+    value: Fraction
+    real: bool
+
+
+@dataclass(frozen=True)
+class Arith:
+    op: Literal["+", "-", "*", "/"]
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class Neg:
+    arg: Expr
+
+
+@dataclass(frozen=True)
+class Cmp:
+    op: Literal["<", "<=", ">", ">=", "==", "!="]
+    left: Expr
+    right: Expr
+
+
+@dataclass(frozen=True)
+class Call:
+    """`min(a, b, ...)`, `max(a, b, ...)`, `abs(a)`, or `valid(signal)` (the sample lies in the signal's range)."""
+
+    fn: Literal["min", "max", "abs", "valid"]
+    args: tuple[Expr, ...]
+
+
+@dataclass(frozen=True)
+class Ite:
+    cond: Expr
+    then: Expr
+    other: Expr
+
+
+@dataclass(frozen=True)
+class Prev:
+    """The value of `arg` at the previous step (at the first step: over the initial state and variables)."""
+
+    arg: Expr
 
 
 @dataclass(frozen=True)
@@ -56,7 +108,47 @@ class BinOp:
     right: Expr
 
 
-Expr: TypeAlias = Const | Var | StateIn | Not | BinOp
+Expr: TypeAlias = Const | Var | StateIn | Not | BinOp | Num | Arith | Neg | Cmp | Call | Ite | Prev
+BOOLEAN_NODES = (Const, Var, StateIn, Not, BinOp)
+
+
+def children(expr: Expr) -> tuple[Expr, ...]:
+    if isinstance(expr, Not | Neg | Prev):
+        return (expr.arg,)
+    if isinstance(expr, BinOp | Arith | Cmp):
+        return (expr.left, expr.right)
+    if isinstance(expr, Call):
+        return expr.args
+    if isinstance(expr, Ite):
+        return (expr.cond, expr.then, expr.other)
+    return ()
+
+
+def nodes(expr: Expr) -> Iterator[Expr]:
+    """Every node of the tree, without recursion."""
+    todo = [expr]
+    while todo:
+        node = todo.pop()
+        yield node
+        todo.extend(children(node))
+
+
+def names_of(expr: Expr) -> frozenset[str]:
+    """Every name an expression reads (not counting states)."""
+    return frozenset(n.name for n in nodes(expr) if isinstance(n, Var))
+
+
+def is_boolean_only(expr: Expr) -> bool:
+    """True when the expression uses only the grammar of machines without data."""
+    return all(isinstance(n, BOOLEAN_NODES) for n in nodes(expr))
+
+
+def as_binop(expr: Expr) -> BinOp:
+    """The node as a boolean connective, for code that handles only machines without data (which have no other
+    node left once constants, names, states and `not` are handled)."""
+    if not isinstance(expr, BinOp):
+        raise TypeError(f"{type(expr).__name__} belongs to machines with data; this path handles boolean machines")
+    return expr
 
 
 def inputs_of(expr: Expr) -> frozenset[str]:
@@ -72,13 +164,7 @@ def inputs_of(expr: Expr) -> frozenset[str]:
 
 def mentions_state(expr: Expr) -> bool:
     """True when the expression compares the machine's state."""
-    if isinstance(expr, StateIn):
-        return True
-    if isinstance(expr, Not):
-        return mentions_state(expr.arg)
-    if isinstance(expr, BinOp):
-        return mentions_state(expr.left) or mentions_state(expr.right)
-    return False
+    return any(isinstance(n, StateIn) for n in nodes(expr))
 
 
 def evaluate(expr: Expr, inputs: Mapping[str, bool], state: str | None = None) -> bool:
@@ -91,12 +177,20 @@ def evaluate(expr: Expr, inputs: Mapping[str, bool], state: str | None = None) -
         return state in expr.states
     if isinstance(expr, Not):
         return not evaluate(expr.arg, inputs, state)
+    expr = as_binop(expr)
     a = evaluate(expr.left, inputs, state)
     b = evaluate(expr.right, inputs, state)
     return {"and": a and b, "or": a or b, "->": (not a) or b, "<->": a == b}[expr.op]
 
 
 _PRECEDENCE = {"<->": 1, "->": 2, "or": 3, "and": 4}
+_NOT, _CMP, _SUM, _PROD, _NEG = 5, 6, 7, 8, 9
+
+
+def show_number(value: Fraction, real: bool) -> str:
+    if value.denominator == 1:
+        return f"{value.numerator}.0" if real else str(value.numerator)
+    return repr(float(value)) if Fraction(float(value)) == value else f"({value.numerator} / {value.denominator})"
 
 
 def show(expr: Expr, parent: int = 0) -> str:
@@ -110,10 +204,29 @@ def show(expr: Expr, parent: int = 0) -> str:
             return f"state == {expr.states[0]}"
         return "state in {" + ", ".join(expr.states) + "}"
     if isinstance(expr, Not):
-        return "not " + show(expr.arg, 5)
-    prec = _PRECEDENCE[expr.op]
-    text = f"{show(expr.left, prec)} {expr.op} {show(expr.right, prec)}"
-    return f"({text})" if prec <= parent and not (prec == parent and expr.op in ("and", "or")) else text
+        return "not " + show(expr.arg, _NOT)
+    if isinstance(expr, BinOp):
+        prec = _PRECEDENCE[expr.op]
+        text = f"{show(expr.left, prec)} {expr.op} {show(expr.right, prec)}"
+        return f"({text})" if prec <= parent and not (prec == parent and expr.op in ("and", "or")) else text
+    return _show_data(expr, parent)
+
+
+def _show_data(expr: Expr, parent: int) -> str:
+    if isinstance(expr, Num):
+        return show_number(expr.value, expr.real)
+    if isinstance(expr, Neg):
+        return "-" + show(expr.arg, _NEG)
+    if isinstance(expr, Call | Prev):
+        name, args = ("prev", (expr.arg,)) if isinstance(expr, Prev) else (expr.fn, expr.args)
+        return f"{name}(" + ", ".join(show(a) for a in args) + ")"
+    if isinstance(expr, Ite):
+        text = f"if {show(expr.cond)} then {show(expr.then)} else {show(expr.other)}"
+        return f"({text})" if parent else text
+    assert isinstance(expr, Arith | Cmp)
+    prec = _CMP if isinstance(expr, Cmp) else _SUM if expr.op in "+-" else _PROD
+    text = f"{show(expr.left, prec)} {expr.op} {show(expr.right, prec + (0 if isinstance(expr, Cmp) else 1))}"
+    return f"({text})" if prec <= parent and not (prec == parent and isinstance(expr, Arith)) else text
 
 
 # --- machine elements ----------------------------------------------------------------------------
@@ -127,6 +240,102 @@ class Input:
     loc: Loc
 
 
+Type = Literal["bool", "int", "real"]
+Unit: TypeAlias = tuple[tuple[str, int], ...]  # base units with their exponents, sorted; () is dimensionless
+Range: TypeAlias = tuple[Fraction, Fraction]
+Value: TypeAlias = bool | int | Fraction
+
+
+@dataclass(frozen=True)
+class Param:
+    """A named constant. Proved for `default`; for every value in `range` when a proof is parametric."""
+
+    name: str
+    type: Type
+    default: Fraction
+    range: Range | None
+    unit: Unit
+    doc: str
+    cite: str
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class Signal:
+    """A numeric input, fresh each step. A sample outside `range` (NaN and the infinities included) is invalid."""
+
+    name: str
+    type: Type
+    unit: Unit
+    range: Range
+    doc: str
+    cite: str
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class Variable:
+    """A numeric state variable: `initial` before the first step; each step it takes the value of the firing
+    transition's update, else of `every`, else keeps its value."""
+
+    name: str
+    type: Type
+    initial: Fraction
+    range: Range | None
+    every: Expr | None
+    unit: Unit
+    doc: str
+    cite: str
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class Definition:
+    """A named expression. A boolean definition that reads a signal (directly or through a numeric definition)
+    takes the value `if_invalid` whenever one of those samples is invalid."""
+
+    name: str
+    type: Type
+    expr: Expr
+    unit: Unit
+    if_invalid: bool
+    signals: tuple[str, ...]
+    doc: str
+    cite: str
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class Output:
+    """A value emitted each step, over the state and variables after the step."""
+
+    name: str
+    type: Type
+    expr: Expr
+    unit: Unit
+    doc: str
+    cite: str
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class Assumption:
+    """A constraint on the environment at every step: over that step's inputs and the state and variables
+    before it."""
+
+    id: str
+    expr: Expr
+    doc: str
+    cite: str
+    loc: Loc
+
+
+@dataclass(frozen=True)
+class Update:
+    variable: str
+    expr: Expr
+
+
 @dataclass(frozen=True)
 class Transition:
     """A guarded edge. `sources` is `None` for `from = "*"` (every state)."""
@@ -138,6 +347,7 @@ class Transition:
     cite: str
     loc: Loc
     doc: str = ""
+    updates: tuple[Update, ...] = ()
 
     def applies_to(self, state: str) -> bool:
         return self.sources is None or state in self.sources
@@ -153,6 +363,7 @@ class Invariant:
     expect: Verdict
     loc: Loc
     doc: str = ""
+    parametric: bool = False
 
 
 @dataclass(frozen=True)
@@ -168,6 +379,8 @@ class Liveness:
     expect: Verdict
     loc: Loc
     doc: str = ""
+    parametric: bool = False
+    bound: Expr | None = None  # in a machine with data: the bound in steps, over params (`within` when constant)
 
 
 @dataclass(frozen=True)
@@ -196,10 +409,22 @@ class Machine:
     comparisons: tuple[Comparison, ...] = ()
     expect: Mapping[str, Verdict] = field(default_factory=dict)
     loc: Loc = IN_MEMORY
+    params: tuple[Param, ...] = ()
+    signals: tuple[Signal, ...] = ()
+    variables: tuple[Variable, ...] = ()
+    definitions: tuple[Definition, ...] = ()
+    outputs: tuple[Output, ...] = ()
+    assumptions: tuple[Assumption, ...] = ()
+    step_s: Fraction | None = None
+    data: bool = False  # declared data, or uses an expression a machine without data cannot (arithmetic, prev)
 
     @property
     def input_names(self) -> tuple[str, ...]:
         return tuple(i.name for i in self.inputs)
+
+    @property
+    def has_data(self) -> bool:
+        return self.data
 
     def outgoing(self, state: str) -> tuple[Transition, ...]:
         """Transitions that apply in `state`, in priority (file) order."""

@@ -10,7 +10,7 @@ from mlca_verify.logic.equiv import EquivalenceResult, Region
 from mlca_verify.logic.results import Counterexample, Outcome, Result
 from mlca_verify.regress import TransitionChange, VerdictChange
 
-CHECK_SCHEMA = "mlca-verify.check/1"
+CHECK_SCHEMA = "mlca-verify.check/2"
 CITE_WIDTH = 60
 TRACE_CITE_WIDTH = 44
 
@@ -43,18 +43,43 @@ def _outcome_text(o: Outcome) -> str:
     return _fired_text(o) if o.transition is None else f"{_fired_text(o)} -> {o.next}"
 
 
+def number_text(value: bool | int | float) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    return str(value) if isinstance(value, int) else f"{value:.6g}"
+
+
+def _data_columns(cx: Counterexample) -> list[str]:
+    """Definitions as the step's guards saw them, then variables and outputs after the step."""
+    first = cx.steps[0] if cx.steps else None
+    if first is None:
+        return []
+    return [*first.definitions, *first.variables, *first.outputs]
+
+
 def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") -> str:
-    """A counterexample as a table of steps; inputs as 1/0; the loop of a lasso marked."""
+    """A counterexample as a table of steps; inputs as 1/0; the loop of a lasso marked. A machine with data adds
+    its params, a column per definition, variable (after the step) and output, and the signals below."""
     rows = []
+    extra = _data_columns(cx)
     for index, step in enumerate(cx.steps):
         mark = "loop->" if cx.loop_start == index else ""
         values = list(bits(step.inputs, inputs))
-        stuck = step.outcome.transition is None and not step.alternatives
+        stuck = step.outcome.transition is None and not step.alternatives and step.outcome.next is None
         nxt = "stuck" if stuck else (step.outcome.next or "-")
-        rows.append([mark, str(index + 1), step.state, *values, _fired_text(step.outcome), nxt])
-        rows.extend(["", "", "", *[""] * len(inputs), "  or " + _outcome_text(alt), ""] for alt in step.alternatives)
-    headers = ["", "step", "state", *inputs, "transition", "next"]
+        shown = {**step.definitions, **step.variables, **step.outputs}
+        data = [number_text(shown[c]) if c in shown else "" for c in extra]
+        rows.append([mark, str(index + 1), step.state, *values, *data, _fired_text(step.outcome), nxt])
+        blanks = [""] * (len(inputs) + len(extra))
+        rows.extend(["", "", "", *blanks, "  or " + _outcome_text(alt), ""] for alt in step.alternatives)
+    headers = ["", "step", "state", *inputs, *extra, "transition", "next"]
     text = table(headers, rows, indent)
+    if cx.params:
+        text = f"{indent}params: " + ", ".join(f"{k} = {number_text(v)}" for k, v in cx.params.items()) + "\n" + text
+    if cx.steps and cx.steps[0].signals:
+        names = list(cx.steps[0].signals)
+        signal_rows = [[str(i + 1), *(number_text(s.signals[n]) for n in names)] for i, s in enumerate(cx.steps)]
+        text += f"\n{indent}signals:\n" + table(["step", *names], signal_rows, indent)
     if cx.loop_start is not None:
         text += f"\n{indent}(steps {cx.loop_start + 1}..{len(cx.steps)} repeat forever)"
     return text

@@ -11,7 +11,7 @@ import jinja2
 from mlca_verify import escape
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
-from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, show
+from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, as_binop, show
 from mlca_verify.targets import Layout
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # shipped as package data
@@ -40,6 +40,7 @@ def _py(expr: Expr) -> tuple[str, int]:
         if isinstance(expr.arg, Not):
             return _py(expr.arg.arg)
         return f"not {py_expr(expr.arg, _PY_PREC['not'])}", _PY_PREC["not"]
+    expr = as_binop(expr)
     if expr.op == "->":
         return _py(BinOp("or", Not(expr.left), expr.right))
     if expr.op == "<->":
@@ -68,6 +69,7 @@ def _c_like(expr: Expr, macro: str, ops: dict[str, str], state: str) -> str:
             return parts[0] if len(parts) == 1 else "(" + " || ".join(parts) + ")"
         if isinstance(e, Not):
             return f"(!{go(e.arg)})"
+        e = as_binop(e)
         return f"({go(e.left)} {ops[e.op]} {go(e.right)})"
 
     return go(expr)

@@ -5,7 +5,9 @@ from __future__ import annotations
 import time
 
 from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.datachecks import check_data_machine
 from mlca_verify.logic.equiv import compare
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import Machine
@@ -13,8 +15,13 @@ from mlca_verify.model import Machine
 __all__ = ["check_all", "compare"]
 
 
-def check_all(machine: Machine, timeout_ms: int = DEFAULT_TIMEOUT_MS) -> list[Result]:
-    """Built-in checks, declared invariants and liveness, and declared comparisons, in that order."""
+def check_all(
+    machine: Machine, timeout_ms: int = DEFAULT_TIMEOUT_MS, parametric: bool = False, limits: Limits | None = None
+) -> list[Result]:
+    """Built-in checks, declared invariants and liveness, and declared comparisons, in that order. A machine
+    with data is decided symbolically; `parametric` proves its properties for every param value in range."""
+    if machine.has_data:
+        return check_data_machine(machine, limits or Limits(timeout_ms=timeout_ms), parametric)
     results = Checker(machine, timeout_ms).run_all()
     for declared in machine.comparisons:
         start = time.perf_counter()

@@ -2,12 +2,23 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from mlca_verify.model import Verdict
 
-Kind = Literal["determinism", "completeness", "reachability", "dead-transition", "invariant", "liveness", "equivalence"]
+Kind = Literal[
+    "determinism",
+    "completeness",
+    "reachability",
+    "dead-transition",
+    "invariant",
+    "liveness",
+    "equivalence",
+    "range",
+    "division",
+]
+Number = bool | int | float
 
 
 @dataclass(frozen=True)
@@ -35,11 +46,20 @@ class Step:
     inputs: dict[str, bool]
     outcome: Outcome
     alternatives: tuple[Outcome, ...] = ()
+    # In a machine with data: the step's signals and the definitions as its guards saw them, and the
+    # variables and outputs after it.
+    signals: dict[str, Number] = field(default_factory=dict)
+    definitions: dict[str, Number] = field(default_factory=dict)
+    variables: dict[str, Number] = field(default_factory=dict)
+    outputs: dict[str, Number] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         data: dict[str, Any] = {"state": self.state, "inputs": dict(self.inputs), **self.outcome.to_json()}
         if self.alternatives:
             data["alternatives"] = [a.to_json() for a in self.alternatives]
+        for key in ("signals", "definitions", "variables", "outputs"):
+            if getattr(self, key):
+                data[key] = dict(getattr(self, key))
         return data
 
 
@@ -49,9 +69,38 @@ class Counterexample:
 
     steps: tuple[Step, ...]
     loop_start: int | None = None
+    params: dict[str, Number] = field(default_factory=dict)  # in a machine with data: the params of the run
 
     def to_json(self) -> dict[str, Any]:
-        return {"steps": [s.to_json() for s in self.steps], "loop_start": self.loop_start}
+        data: dict[str, Any] = {"steps": [s.to_json() for s in self.steps], "loop_start": self.loop_start}
+        if self.params:
+            data["params"] = dict(self.params)
+        return data
+
+
+@dataclass(frozen=True)
+class Proof:
+    """How a machine with data was decided: the engine, the k of k-induction, the certificate of PDR (an
+    inductive invariant in SMT-LIB, over the frame's constants) and whether a separate query confirmed it."""
+
+    engine: str
+    parametric: bool
+    k: int | None = None
+    certificate: str | None = None
+    certificate_checked: bool = False
+    assumptions: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "engine": self.engine,
+            "parametric": self.parametric,
+            "k": self.k,
+            "certificate": self.certificate,
+            "certificate_checked": self.certificate_checked,
+            "assumptions": list(self.assumptions),
+            "notes": list(self.notes),
+        }
 
 
 @dataclass(frozen=True)
@@ -64,6 +113,7 @@ class Result:
     seconds: float = 0.0
     counterexample: Counterexample | None = None
     detail: str = ""
+    proof: Proof | None = None
 
     @property
     def ok(self) -> bool:
@@ -80,4 +130,5 @@ class Result:
             "seconds": round(self.seconds, 6),
             "detail": self.detail,
             "counterexample": None if self.counterexample is None else self.counterexample.to_json(),
+            **({} if self.proof is None else {"proof": self.proof.to_json()}),
         }

@@ -7,7 +7,7 @@ from typing import Literal
 
 import z3
 
-from mlca_verify.model import Const, Expr, Not, StateIn, Var
+from mlca_verify.model import Const, Expr, Not, StateIn, Var, as_binop
 
 Answer = Literal["sat", "unsat", "unknown"]
 DEFAULT_TIMEOUT_MS = 10_000
@@ -23,6 +23,7 @@ def encode(expr: Expr, inputs: Mapping[str, z3.BoolRef], state: str | None = Non
         return z3.BoolVal(state in expr.states)
     if isinstance(expr, Not):
         return z3.Not(encode(expr.arg, inputs, state))
+    expr = as_binop(expr)
     a, b = encode(expr.left, inputs, state), encode(expr.right, inputs, state)
     ops = {"and": z3.And, "or": z3.Or, "->": z3.Implies, "<->": lambda x, y: x == y}
     result: z3.BoolRef = ops[expr.op](a, b)

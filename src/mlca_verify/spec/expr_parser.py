@@ -1,4 +1,4 @@
-"""Recursive-descent parser for guard and property expressions (never `eval`).
+"""Recursive-descent parser for guard, definition and property expressions (never `eval`).
 
 Grammar, loosest binding first:
 
@@ -6,9 +6,16 @@ Grammar, loosest binding first:
     implies := disj ('->' implies)?          right-associative
     disj    := conj ('or' conj)*
     conj    := unary ('and' unary)*
-    unary   := 'not' unary | atom
-    atom    := '(' expr ')' | 'true' | 'false' | NAME
+    unary   := 'not' unary | cmp
+    cmp     := sum (('<' | '<=' | '>' | '>=' | '==' | '!=') sum)?
+    sum     := prod (('+' | '-') prod)*
+    prod    := neg (('*' | '/') neg)*
+    neg     := '-' neg | atom
+    atom    := '(' expr ')' | 'true' | 'false' | NUMBER | NAME
              | 'state' ('==' | '!=') NAME | 'state' 'in' '{' NAME (',' NAME)* '}'
+             | 'if' expr 'then' expr 'else' expr
+             | ('min' | 'max') '(' expr (',' expr)+ ')' | 'abs' '(' expr ')' | 'valid' '(' NAME ')'
+             | 'prev' '(' expr ')' | 'prev' '(' 'state' ')' ('==' | '!=' | 'in') ...
 
 Names are resolved later, against the machine; this module only knows the syntax. Work is bounded: the text is
 at most `MAX_LENGTH` characters and tokenized in one pass, and no expression nests deeper than `MAX_DEPTH`
@@ -19,9 +26,11 @@ can exhaust the stack.
 from __future__ import annotations
 
 import re
+import sys
 from dataclasses import dataclass
+from fractions import Fraction
 
-from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var
+from mlca_verify.model import Arith, BinOp, Call, Cmp, Const, Expr, Ite, Neg, Not, Num, Prev, StateIn, Var, children
 
 
 class ParseError(Exception):
@@ -35,7 +44,7 @@ class ParseError(Exception):
 
 @dataclass(frozen=True)
 class Token:
-    kind: str  # NAME, OP, END
+    kind: str  # NAME, NUM, OP, END
     text: str
     offset: int
 
@@ -54,8 +63,14 @@ MAX_LENGTH = 10_000  # characters in one expression
 MAX_DEPTH = 100  # nesting of one expression
 
 _SPACE = re.compile(r"\s*")
-_TOKEN = re.compile(r"(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<op><->|->|==|!=|[(){},])")
-_KEYWORDS = {"and", "or", "not", "true", "false", "state", "in"}
+_TOKEN = re.compile(
+    r"(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<num>[0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?)"
+    r"|(?P<op><->|->|==|!=|<=|>=|[-+*/<>(){},])"
+)
+_KEYWORDS = {"and", "or", "not", "true", "false", "state", "in", "if", "then", "else", "prev"}
+_FUNCTIONS = {"min", "max", "abs", "valid"}
+_COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
+MAX_EXPONENT = 300  # a literal's exponent: keeps exact arithmetic on it small
 
 
 def tokenize(text: str) -> list[Token]:
@@ -67,7 +82,7 @@ def tokenize(text: str) -> list[Token]:
         m = _TOKEN.match(text, pos)
         if m is None:
             raise ParseError(pos, f"unexpected character {text[pos]!r}")
-        kind = "NAME" if m.group("name") else "OP"
+        kind = "NAME" if m.group("name") else "NUM" if m.group("num") else "OP"
         tokens.append(Token(kind, m.group(), pos))
         pos = _skip_space(text, m.end())
     tokens.append(Token("END", "", len(text)))
@@ -85,6 +100,12 @@ class _Parser:
         self.pos = 0
         self.refs: list[NameRef] = []
         self.depth = 0
+        self.offsets: dict[int, int] = {}
+
+    def mark(self, node: Expr, offset: int) -> Expr:
+        """Remember where `node` was written, for type errors at its column."""
+        self.offsets[id(node)] = offset
+        return node
 
     def nest(self, offset: int) -> None:
         """One level deeper (a parenthesis, a `not`, the right side of `->`); refused past `MAX_DEPTH`."""
@@ -154,6 +175,45 @@ class _Parser:
             inner = self.unary()
             self.depth -= 1
             return Not(inner)
+        return self.comparison()
+
+    def is_op(self, *texts: str) -> bool:
+        return self.tok.kind == "OP" and self.tok.text in texts
+
+    def comparison(self) -> Expr:
+        left = self.sum()
+        if self.is_op(*_COMPARISONS):
+            op, at = self.tok.text, self.tok.offset
+            self.pos += 1
+            left = self.mark(Cmp(op, left, self.sum()), at)  # type: ignore[arg-type]
+            if self.is_op(*_COMPARISONS):
+                raise ParseError(self.tok.offset, "comparisons do not chain: join them with 'and'")
+        return left
+
+    def sum(self) -> Expr:
+        left = self.product()
+        while self.is_op("+", "-"):
+            op, at = self.tok.text, self.tok.offset
+            self.pos += 1
+            left = self.mark(Arith(op, left, self.product()), at)  # type: ignore[arg-type]
+        return left
+
+    def product(self) -> Expr:
+        left = self.negation()
+        while self.is_op("*", "/"):
+            op, at = self.tok.text, self.tok.offset
+            self.pos += 1
+            left = self.mark(Arith(op, left, self.negation()), at)  # type: ignore[arg-type]
+        return left
+
+    def negation(self) -> Expr:
+        if self.is_op("-"):
+            at = self.tok.offset
+            self.nest(at)
+            self.pos += 1
+            inner = self.negation()
+            self.depth -= 1
+            return self.mark(Neg(inner), at)
         return self.atom()
 
     def atom(self) -> Expr:
@@ -164,6 +224,13 @@ class _Parser:
             self.expect(")", "')'")
             self.depth -= 1
             return inner
+        if tok.kind == "NUM":
+            self.pos += 1
+            return self.mark(number(tok), tok.offset)
+        if tok.kind == "NAME" and tok.text == "if":
+            return self.conditional()
+        if tok.kind == "NAME" and (tok.text in _FUNCTIONS or tok.text == "prev") and self.peek("("):
+            return self.call()
         if tok.kind != "NAME" or tok.text in _KEYWORDS - {"true", "false", "state"}:
             raise ParseError(
                 tok.offset, f"expected an input name, 'state', 'true', 'false', 'not' or '(', found {self.describe()}"
@@ -174,7 +241,51 @@ class _Parser:
         if tok.text == "state":
             return self.state_comparison(tok.offset)
         self.refs.append(NameRef(tok.text, tok.offset, is_state=False))
-        return Var(tok.text)
+        return self.mark(Var(tok.text), tok.offset)
+
+    def peek(self, text: str) -> bool:
+        after = self.tokens[self.pos + 1] if self.pos + 1 < len(self.tokens) else self.tokens[-1]
+        return after.kind == "OP" and after.text == text
+
+    def conditional(self) -> Expr:
+        at = self.tok.offset
+        self.nest(at)
+        self.pos += 1
+        cond = self.iff()
+        self.expect("then", "'then'")
+        then = self.iff()
+        self.expect("else", "'else'")
+        other = self.iff()
+        self.depth -= 1
+        return self.mark(Ite(cond, then, other), at)
+
+    def call(self) -> Expr:
+        name = self.tok
+        ahead = self.tokens[self.pos + 2 : self.pos + 4]
+        if name.text == "prev" and [t.text for t in ahead] == ["state", ")"] and ahead[0].kind == "NAME":
+            self.pos += 4  # prev(state) ==, != or in: the state before the step
+            return self.mark(Prev(self.state_comparison(ahead[0].offset)), name.offset)
+        self.nest(name.offset)
+        self.pos += 2
+        if name.text == "valid":
+            arg = self.tok
+            if arg.kind != "NAME" or arg.text in _KEYWORDS or arg.text in _FUNCTIONS:
+                raise ParseError(arg.offset, f"valid() takes a signal's name, found {self.describe()}")
+            self.pos += 1
+            self.refs.append(NameRef(arg.text, arg.offset, is_state=False))
+            args: list[Expr] = [self.mark(Var(arg.text), arg.offset)]
+        else:
+            args = [self.iff()]
+            while self.accept(","):
+                args.append(self.iff())
+        self.expect(")", "')'" if name.text in ("abs", "valid", "prev") else "',' or ')'")
+        self.depth -= 1
+        wanted = {"min": "at least 2", "max": "at least 2", "abs": "1", "valid": "1", "prev": "1"}[name.text]
+        if (len(args) < 2) if wanted == "at least 2" else len(args) != 1:
+            raise ParseError(name.offset, f"{name.text}() takes {wanted} arguments, got {len(args)}")
+        if name.text == "prev":
+            return self.mark(Prev(args[0]), name.offset)
+        return self.mark(Call(name.text, tuple(args)), name.offset)  # type: ignore[arg-type]
 
     def state_comparison(self, at: int) -> Expr:
         if self.accept("=="):
@@ -199,13 +310,40 @@ class _Parser:
         return tok.text
 
 
+@dataclass(frozen=True)
+class Parsed:
+    expr: Expr
+    refs: list[NameRef]
+    offsets: dict[int, int]  # id of a node -> its offset in the text (names, numbers, operators, calls)
+
+
 def parse_expr(text: str) -> tuple[Expr, list[NameRef]]:
     """Parse `text`; return the AST and every name it uses with its offset."""
+    parsed = parse_full(text)
+    return parsed.expr, parsed.refs
+
+
+def parse_full(text: str) -> Parsed:
+    """Parse `text`, keeping where each node was written."""
     parser = _Parser(text)
-    expr = parser.parse()
+    # Each nesting level passes through about a dozen grammar functions: leave room for MAX_DEPTH of them.
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 20 * MAX_DEPTH + 1000))
+    try:
+        expr = parser.parse()
+    finally:
+        sys.setrecursionlimit(limit)
     if depth(expr) > MAX_DEPTH:
         raise ParseError(0, f"expression nested more than {MAX_DEPTH} deep (split a long chain with parentheses)")
-    return expr, parser.refs
+    return Parsed(expr, parser.refs, parser.offsets)
+
+
+def number(tok: Token) -> Num:
+    """A literal, exact: `0.1` is one tenth."""
+    mantissa, _, exponent = tok.text.lower().partition("e")
+    if exponent and abs(int(exponent)) > MAX_EXPONENT:
+        raise ParseError(tok.offset, f"number {tok.text[:30]!r} has an exponent beyond {MAX_EXPONENT}")
+    return Num(Fraction(mantissa) * Fraction(10) ** int(exponent or 0), real="." in tok.text or bool(exponent))
 
 
 def depth(expr: Expr) -> int:
@@ -214,8 +352,5 @@ def depth(expr: Expr) -> int:
     while todo:
         node, level = todo.pop()
         deepest = max(deepest, level)
-        if isinstance(node, BinOp):
-            todo += [(node.left, level + 1), (node.right, level + 1)]
-        elif isinstance(node, Not):
-            todo.append((node.arg, level + 1))
+        todo += [(child, level + 1) for child in children(node)]
     return deepest

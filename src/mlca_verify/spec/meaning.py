@@ -15,11 +15,19 @@ from mlca_verify.model import (
     Liveness,
     Machine,
     Otherwise,
+    Prev,
     Semantics,
     Transition,
+    Type,
+    Unit,
+    Var,
     Verdict,
+    is_boolean_only,
+    nodes,
 )
-from mlca_verify.spec.expr_parser import ParseError, parse_expr
+from mlca_verify.model import Call as CallNode
+from mlca_verify.spec.data import ROLES, DataBuilder, Role, declared_data
+from mlca_verify.spec.expr_parser import ParseError, parse_full
 from mlca_verify.spec.locate import KeyPath, Locator
 from mlca_verify.spec.names import (
     IDENTIFIER,
@@ -31,6 +39,7 @@ from mlca_verify.spec.names import (
     c_form,
     clash,
 )
+from mlca_verify.spec.types import Symbol, TypeChecker, TypeProblem
 
 BUILTIN_PROPERTIES = frozenset({"determinism", "completeness"})
 # Prefixes of the built-in checks' results (`fires:t1`, `reach:IDLE`, `equiv:OTHER`): ids that would be read as one.
@@ -57,6 +66,9 @@ class MeaningChecker:
         self.load_other = load_other
         self.states: tuple[str, ...] = ()
         self.input_names: frozenset[str] = frozenset()
+        self.env: dict[str, Symbol] = {}
+        self.data = declared_data(doc)
+        self.builder = DataBuilder(doc, where, self.env, self.typed)
 
     def fail(self, path: KeyPath, message: str) -> SpecError:
         return SpecError(self.where.loc(path), message)
@@ -114,10 +126,23 @@ class MeaningChecker:
                 f"initial state {_quoted(m['initial'])} is not a state ({', '.join(self.states)})",
             )
         inputs = self.inputs()
+        b = self.builder
+        params, signals = b.params(), b.signals()
+        b.declare_variables()
+        definitions = b.definitions()
+        variables = b.variables()
+        self.unique_names()
         transitions = self.transitions()
+        outputs = b.outputs()
+        assumptions = b.assumptions(self.property_id)
         invariants = self.invariants()
         liveness = self.liveness_list()
         self.unique_properties(invariants, liveness)
+        step_s = None
+        if "step_s" in m:
+            step_s = b.number(("machine", "step_s"), m["step_s"], "real")
+            if step_s <= 0:
+                raise self.fail(("machine", "step_s"), "'step_s' must be positive")
         return Machine(
             name=m["name"],
             initial=m["initial"],
@@ -128,13 +153,21 @@ class MeaningChecker:
                 Semantics, self.choice(("machine", "semantics"), m.get("semantics", "first-match"), SEMANTICS)
             ),
             otherwise=cast(Otherwise, self.choice(("machine", "otherwise"), m.get("otherwise", "stay"), OTHERWISE)),
-            cite=m["cite"],
+            cite=m.get("cite", ""),
             doc=m.get("doc", ""),
             invariants=invariants,
             liveness=liveness,
             comparisons=self.comparisons(),
             expect=self.expect_table(transitions),
             loc=self.where.loc(("machine",)),
+            params=params,
+            signals=signals,
+            variables=variables,
+            definitions=definitions,
+            outputs=outputs,
+            assumptions=assumptions,
+            step_s=step_s,
+            data=self.data,
         )
 
     def choice(self, path: KeyPath, value: str, allowed: tuple[str, ...]) -> str:
@@ -142,15 +175,27 @@ class MeaningChecker:
             raise self.fail(path, f"'{path[-1]}' must be one of {', '.join(allowed)}, got {_quoted(value)}")
         return value
 
+    def unique_names(self) -> None:
+        """One namespace for inputs, params, signals, variables, definitions and outputs."""
+        named: list[tuple[str, Loc]] = []
+        for section in ("inputs", "params", "signals", "variables", "definitions", "outputs"):
+            for name in self.doc.get(section, {}):
+                loc = self.where.key_loc((section, name))
+                if section != "inputs":
+                    self.identifier((section, name), name, f"{section[:-1]} name", loc)
+                named.append((name, loc))
+        self.distinct((), named, "name")
+
     def inputs(self) -> tuple[Input, ...]:
-        items = self.doc["inputs"]
-        if not items:
+        items = self.doc.get("inputs", {})
+        if not items and not (self.doc.get("signals") or self.doc.get("definitions")):
             raise self.fail(("inputs",), "a machine needs at least one input")
         self.bounded(("inputs",), len(items), MAX_INPUTS, "inputs")
         result = []
         for name, item in items.items():
             self.identifier(("inputs", name), name, "input name", self.where.key_loc(("inputs", name)))
-            result.append(Input(name, item["doc"], item["cite"], self.where.loc(("inputs", name))))
+            result.append(Input(name, item["doc"], item.get("cite", ""), self.where.loc(("inputs", name))))
+            self.env[name] = Symbol("input", "bool", ())
         self.distinct(("inputs",), [(i.name, i.loc) for i in result], "input")
         self.input_names = frozenset(items)
         return tuple(result)
@@ -158,26 +203,78 @@ class MeaningChecker:
     # --- expressions ---------------------------------------------------------------------------------
 
     def expr(self, path: KeyPath, text: str, allow_state: bool, role: str) -> Expr:
+        del allow_state  # the role says it
+        return self.typed(path, text, role)[0]
+
+    def typed(self, path: KeyPath, text: str, role_name: str) -> tuple[Expr, Type, Unit | None]:
+        """Parse an expression, resolve its names for `role_name` (a key of ROLES) and check its type."""
+        role = ROLES[role_name]
         try:
-            expr, refs = parse_expr(text)
+            parsed = parse_full(text)
         except ParseError as err:
             raise SpecError(
-                self.where.string_loc(path, err.offset), f"bad {role} {_quoted(text)}: {err.message}"
+                self.where.string_loc(path, err.offset), f"bad {role.label} {_quoted(text.strip())}: {err.message}"
             ) from None
+        self.resolve(path, text, parsed.refs, role)
+        self.special_nodes(path, parsed.expr, parsed.offsets, role)
+        try:
+            kind, unit = TypeChecker(self.env, parsed.offsets).check(parsed.expr)
+        except TypeProblem as err:
+            raise SpecError(self.where.string_loc(path, err.offset), f"{role.label}: {err.message}") from None
+        if role.type is not None and kind != role.type and not (role.type == "real" and kind == "int"):
+            raise SpecError(self.where.string_loc(path, 0), f"{role.label} must be {role.type}, got {kind}")
+        if not is_boolean_only(parsed.expr):
+            self.data = True
+        return parsed.expr, kind, unit
+
+    def resolve(self, path: KeyPath, text: str, refs: list[Any], role: Role) -> None:
         for ref in refs:
             loc = self.where.string_loc(path, ref.offset)
-            if ref.is_state and not allow_state:
+            if ref.is_state and not role.state:
                 where = self.where.string_loc(path, ref.state_offset)
                 raise SpecError(
-                    where, f"{role} may not refer to the state ({role}s are over inputs only): {_quoted(text)}"
+                    where,
+                    f"{role.label} may not refer to the state ({role.label}s are over inputs only): {_quoted(text)}",
                 )
             if ref.is_state and ref.name not in self.states:
-                raise SpecError(loc, f"unknown state '{ref.name}' in {role} (states: {', '.join(self.states)})")
-            if not ref.is_state and ref.name not in self.input_names:
-                raise SpecError(
-                    loc, f"unknown input '{ref.name}' in {role} (inputs: {', '.join(sorted(self.input_names))})"
-                )
-        return expr
+                raise SpecError(loc, f"unknown state '{ref.name}' in {role.label} (states: {', '.join(self.states)})")
+            if ref.is_state:
+                continue
+            symbol = self.env.get(ref.name)
+            if symbol is None or symbol.kind == "pending":
+                raise SpecError(loc, self.unknown(ref.name, role, symbol is not None))
+
+    def unknown(self, name: str, role: Role, pending: bool) -> str:
+        if not self.data:
+            return f"unknown input '{name}' in {role.label} (inputs: {', '.join(sorted(self.input_names))})"
+        if pending:
+            return f"'{name}' is a definition that this one reads in a cycle"
+        known = sorted(n for n, s in self.env.items() if s.kind in role.kinds)
+        listed = ", ".join(known[:12]) + (", ..." if len(known) > 12 else "")
+        return f"unknown name '{name}' in {role.label} (it may read: {listed or 'nothing'})"
+
+    def special_nodes(self, path: KeyPath, expr: Expr, offsets: dict[int, int], role: Role) -> None:
+        """What a role may read: signals, outputs and prev() only where they have a value."""
+        inside_valid = {id(n.args[0]) for n in nodes(expr) if isinstance(n, CallNode) and n.fn == "valid"}
+        for node in nodes(expr):
+            at = self.where.string_loc(path, offsets.get(id(node), 0))
+            if isinstance(node, Prev):
+                if not role.prev:
+                    raise SpecError(at, f"prev() is for properties: a {role.label} reads the state before the step")
+                if any(isinstance(n, Prev) for n in nodes(node.arg)):
+                    raise SpecError(at, "prev() inside prev() is not supported")
+            if not isinstance(node, Var):
+                continue
+            symbol = self.env[node.name]
+            if id(node) in inside_valid:
+                if symbol.kind != "signal":
+                    raise SpecError(at, f"valid() takes a signal, and '{node.name}' is a {symbol.kind}")
+                if role.label == "bound":
+                    raise SpecError(at, "a bound reads only params")
+                continue
+            tainted = symbol.tainted and role.label != "definition"
+            if symbol.kind not in role.kinds or tainted:
+                raise SpecError(at, f"{role.label} cannot read '{node.name}': {role.why_not(symbol.kind)}")
 
     # --- transitions and properties ------------------------------------------------------------------
 
@@ -193,9 +290,10 @@ class MeaningChecker:
                     sources=self.sources((*path, "from"), item["from"]),
                     target=self.state_ref((*path, "to"), item["to"], "target state"),
                     guard=self.expr((*path, "when"), item["when"], allow_state=False, role="guard"),
-                    cite=item["cite"],
+                    cite=item.get("cite", ""),
                     loc=self.where.loc(path),
                     doc=item.get("doc", ""),
+                    updates=self.builder.updates((*path, "do"), item["do"]) if "do" in item else (),
                 )
             )
         self.distinct(("transition",), [(t.id, t.loc) for t in result], "transition id")
@@ -236,7 +334,17 @@ class MeaningChecker:
             self.property_id((*path, "id"), item["id"], "invariant id")
             expr = self.expr((*path, "expr"), item["expr"], allow_state=True, role="invariant")
             loc = self.where.loc(path)
-            result.append(Invariant(item["id"], expr, item["cite"], self.verdict(path, item), loc, item.get("doc", "")))
+            result.append(
+                Invariant(
+                    item["id"],
+                    expr,
+                    item.get("cite", ""),
+                    self.verdict(path, item),
+                    loc,
+                    item.get("doc", ""),
+                    parametric=item.get("parametric", False),
+                )
+            )
         return tuple(result)
 
     def liveness_list(self) -> tuple[Liveness, ...]:
@@ -244,24 +352,46 @@ class MeaningChecker:
         for index, item in enumerate(self.doc.get("liveness", [])):
             path: KeyPath = ("liveness", index)
             self.property_id((*path, "id"), item["id"], "liveness id")
-            within = item.get("within")
-            if within is not None and not 1 <= within <= WITHIN_LIMIT:
-                raise self.fail(
-                    (*path, "within"), f"'within' must be a number of steps from 1 to {WITHIN_LIMIT}, got {within}"
-                )
+            within, bound = self.within(path, item)
             result.append(
                 Liveness(
                     id=item["id"],
                     assume=self.expr((*path, "assume"), item["assume"], allow_state=False, role="assumption"),
                     goal=self.expr((*path, "goal"), item["goal"], allow_state=True, role="goal"),
                     within=within,
-                    cite=item["cite"],
+                    cite=item.get("cite", ""),
                     expect=self.verdict(path, item),
                     loc=self.where.loc(path),
                     doc=item.get("doc", ""),
+                    parametric=item.get("parametric", False),
+                    bound=bound,
                 )
             )
         return tuple(result)
+
+    def within(self, path: KeyPath, item: dict[str, Any]) -> tuple[int | None, Expr | None]:
+        """The bound of a response: `within` steps (a number, or an int expression over params), or `within_s`
+        seconds of the machine's `step_s`."""
+        within = item.get("within")
+        if "within_s" in item:
+            if within is not None:
+                raise self.fail((*path, "within_s"), "give 'within' or 'within_s', not both")
+            step = self.doc["machine"].get("step_s")
+            if step is None:
+                raise self.fail((*path, "within_s"), "'within_s' needs the step length: 'step_s' in [machine]")
+            seconds = self.builder.number((*path, "within_s"), item["within_s"], "real")
+            steps = seconds / self.builder.number(("machine", "step_s"), step, "real")
+            within = -(-steps.numerator // steps.denominator)
+        if isinstance(within, str) and within.strip().isdigit() and len(within) < 10:
+            within = int(within)  # a constant: the same bound as the number itself
+        if isinstance(within, str):
+            self.data = True
+            return None, self.typed((*path, "within"), within, "bound")[0]
+        if within is not None and not 1 <= within <= WITHIN_LIMIT:
+            raise self.fail(
+                (*path, "within"), f"'within' must be a number of steps from 1 to {WITHIN_LIMIT}, got {within}"
+            )
+        return within, None
 
     def unique_properties(self, invariants: tuple[Invariant, ...], liveness: tuple[Liveness, ...]) -> None:
         named = [(p.id, p.loc) for p in invariants] + [(p.id, p.loc) for p in liveness]
@@ -274,7 +404,7 @@ class MeaningChecker:
             if self.load_other is None:
                 continue
             other = self.load_other(item["with"], self.where.loc((*path, "with")))
-            result.append(Comparison(other, self.verdict(path, item), item["cite"], self.where.loc(path)))
+            result.append(Comparison(other, self.verdict(path, item), item.get("cite", ""), self.where.loc(path)))
         return tuple(result)
 
     def expect_table(self, transitions: tuple[Transition, ...]) -> dict[str, Verdict]:

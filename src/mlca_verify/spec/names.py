@@ -42,7 +42,9 @@ ACSL_WORDS = frozenset(
     "allocates frees reads writes exits breaks continues returns label slice module contract function include "
     "pragma assert check admit".split()
 )
-EXPR_WORDS = frozenset({"and", "or", "not", "true", "false", "state", "in"})
+EXPR_WORDS = frozenset(
+    {"and", "or", "not", "true", "false", "state", "in", "if", "then", "else", "prev", "min", "max", "abs", "valid"}
+)
 # The generated header defines <MACHINE>_<STATE> for every state, <MACHINE>_INITIAL and the guard <MACHINE>_FSM_H.
 GENERATED_STATE_SUFFIXES = frozenset({"INITIAL", "FSM_H"})
 # Public attributes of the classes that hold states (an IntEnum) and inputs (a dataclass) in generated Python, on

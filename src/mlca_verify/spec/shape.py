@@ -14,7 +14,7 @@ from mlca_verify.spec.names import MAX_ELEMENTS
 
 @dataclass(frozen=True)
 class Field:
-    kind: str  # "str", "str-or-list", "list-of-str", "int", "table-of-str"
+    kind: str  # "str", "str-or-list", "list-of-str", "int", "table-of-str", "bool", "number", "range", "int-or-str"
     required: bool = False
 
 
@@ -24,37 +24,88 @@ MACHINE = {
     "states": Field("list-of-str", True),
     "semantics": Field("str"),
     "otherwise": Field("str"),
-    "cite": Field("str", True),
+    "cite": Field("str"),
     "doc": Field("str"),
+    "step_s": Field("number"),
 }
-INPUT = {"doc": Field("str", True), "cite": Field("str", True)}
+INPUT = {"doc": Field("str", True), "cite": Field("str")}
 TRANSITION = {
     "id": Field("str"),
     "from": Field("str-or-list", True),
     "to": Field("str", True),
     "when": Field("str", True),
-    "cite": Field("str", True),
+    "do": Field("str"),
+    "cite": Field("str"),
     "doc": Field("str"),
 }
 INVARIANT = {
     "id": Field("str", True),
     "expr": Field("str", True),
-    "cite": Field("str", True),
+    "cite": Field("str"),
     "expect": Field("str"),
     "doc": Field("str"),
+    "parametric": Field("bool"),
 }
 LIVENESS = {
     "id": Field("str", True),
     "assume": Field("str", True),
     "goal": Field("str", True),
-    "within": Field("int"),
-    "cite": Field("str", True),
+    "within": Field("int-or-str"),
+    "within_s": Field("number"),
+    "cite": Field("str"),
     "expect": Field("str"),
     "doc": Field("str"),
+    "parametric": Field("bool"),
 }
-COMPARE = {"with": Field("str", True), "cite": Field("str", True), "expect": Field("str")}
-TOP = {"machine", "inputs", "transition", "invariant", "liveness", "compare", "expect"}
-ARRAYS = {"transition": TRANSITION, "invariant": INVARIANT, "liveness": LIVENESS, "compare": COMPARE}
+COMPARE = {"with": Field("str", True), "cite": Field("str"), "expect": Field("str")}
+ASSUME = {"id": Field("str", True), "expr": Field("str", True), "cite": Field("str"), "doc": Field("str")}
+PARAM = {
+    "type": Field("str", True),
+    "default": Field("number", True),
+    "range": Field("range"),
+    "unit": Field("str"),
+    "doc": Field("str", True),
+    "cite": Field("str"),
+}
+SIGNAL = {
+    "type": Field("str", True),
+    "unit": Field("str", True),
+    "range": Field("range", True),
+    "doc": Field("str", True),
+    "cite": Field("str"),
+}
+VARIABLE = {
+    "type": Field("str", True),
+    "initial": Field("number", True),
+    "range": Field("range"),
+    "every": Field("str"),
+    "unit": Field("str"),
+    "doc": Field("str", True),
+    "cite": Field("str"),
+}
+DEFINITION = {
+    "expr": Field("str", True),
+    "if_invalid": Field("bool"),
+    "unit": Field("str"),
+    "doc": Field("str", True),
+    "cite": Field("str"),
+}
+OUTPUT = {
+    "expr": Field("str", True),
+    "type": Field("str"),
+    "unit": Field("str"),
+    "doc": Field("str", True),
+    "cite": Field("str"),
+}
+TABLES = {"params": PARAM, "signals": SIGNAL, "variables": VARIABLE, "definitions": DEFINITION, "outputs": OUTPUT}
+TOP = {"machine", "inputs", "transition", "invariant", "liveness", "compare", "expect", "assume", *TABLES}
+ARRAYS = {
+    "transition": TRANSITION,
+    "invariant": INVARIANT,
+    "liveness": LIVENESS,
+    "compare": COMPARE,
+    "assume": ASSUME,
+}
 
 _KIND_TEXT = {
     "str": "a string",
@@ -62,6 +113,10 @@ _KIND_TEXT = {
     "list-of-str": "an array of strings",
     "int": "an integer",
     "table-of-str": "a table of strings",
+    "bool": "true or false",
+    "number": "a number",
+    "range": "an array of two numbers [low, high]",
+    "int-or-str": "an integer or a string",
 }
 
 
@@ -70,9 +125,17 @@ def _type_name(value: object) -> str:
     return names.get(type(value), type(value).__name__)
 
 
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
 def _fits(kind: str, value: object) -> bool:
     is_str_list = isinstance(value, list) and all(isinstance(v, str) for v in value)
     return {
+        "bool": isinstance(value, bool),
+        "number": _is_number(value),
+        "range": isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value),
+        "int-or-str": isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool)),
         "str": isinstance(value, str),
         "str-or-list": isinstance(value, str) or is_str_list,
         "list-of-str": is_str_list,
@@ -104,6 +167,8 @@ class ShapeChecker:
             raise self.fail((), "missing table [machine]")
         self.table(("machine",), self.doc["machine"], MACHINE, "[machine]")
         self.inputs(self.doc.get("inputs"))
+        for name, fields in TABLES.items():
+            self.named_tables(name, self.doc.get(name, {}), fields)
         for name, fields in ARRAYS.items():
             self.array(name, self.doc.get(name, []), fields)
         self.expect_table(self.doc.get("expect", {}))
@@ -123,8 +188,18 @@ class ShapeChecker:
                 got = _type_name(value[key])
                 raise self.fail((*path, key), f"'{key}' in {label} must be {_KIND_TEXT[spec.kind]}, got {got}")
 
+    def named_tables(self, section: str, value: object, fields: Mapping[str, Field]) -> None:
+        if not isinstance(value, dict):
+            raise self.fail((section,), f"[{section}] must be a table, got {_type_name(value)}")
+        if len(value) > MAX_ELEMENTS:
+            raise self.fail((section,), f"{len(value)} entries in [{section}]: at most {MAX_ELEMENTS} are supported")
+        for name, item in value.items():
+            self.table((section, name), item, fields, f"{section[:-1]} '{name}'")
+
     def inputs(self, value: object) -> None:
         if value is None:
+            if any(key in self.doc for key in ("signals", "definitions")):
+                return
             raise self.fail((), "missing table [inputs]")
         if not isinstance(value, dict):
             raise self.fail(("inputs",), f"[inputs] must be a table, got {_type_name(value)}")

@@ -1,0 +1,299 @@
+"""Every check of a machine with data, decided symbolically (k-induction, PDR, BMC; see `induction`)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from functools import partial
+
+import z3
+
+from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso
+from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
+from mlca_verify.logic.symbolic import Frame, Monitor, StepInputs, StepTerms, System, input_only, value_of
+from mlca_verify.model import Arith, Call, Expr, Invariant, Liveness, Machine, Num, Prev, Var, Verdict, nodes
+
+Predicate = Callable[[System, StepTerms], z3.BoolRef]
+
+
+def _number(term: z3.ExprRef) -> Number:
+    if z3.is_true(term) or z3.is_false(term):
+        return bool(z3.is_true(term))
+    if z3.is_int_value(term):
+        return int(str(term))
+    if z3.is_rational_value(term):
+        value = Fraction(term.numerator_as_long(), term.denominator_as_long())
+        return int(value) if value.denominator == 1 else float(value)
+    if z3.is_algebraic_value(term):
+        return float(term.approx(20).as_fraction())
+    return 0
+
+
+def _prevs(*exprs: Expr) -> list[Prev]:
+    return [n for e in exprs for n in nodes(e) if isinstance(n, Prev)]
+
+
+def _reads_validity(*exprs: Expr) -> bool:
+    return any(isinstance(n, Call) and n.fn == "valid" for e in exprs for n in nodes(e))
+
+
+Decision = tuple[Verdict, Search | None, str, Counterexample | None]
+
+
+@dataclass(frozen=True)
+class Job:
+    prop: str
+    kind: Kind
+    expected: Verdict
+    cite: str
+    run: Callable[[], Decision]
+    parametric: bool
+
+
+class DataChecker:
+    """Runs every built-in check and declared property of one machine with data."""
+
+    def __init__(self, machine: Machine, limits: Limits, parametric: bool = False) -> None:
+        self.m = machine
+        self.limits = limits
+        self.parametric = parametric
+        self.abstractable = input_only(machine)
+        self.assumed = tuple(a.id for a in machine.assumptions)
+
+    # --- plumbing ------------------------------------------------------------------------------------
+
+    def systems(
+        self, exprs: tuple[Expr, ...], parametric: bool, monitors: tuple[Monitor, ...] = (), total: bool = False
+    ) -> tuple[System, System]:
+        """The abstract system a proof runs on, and the real one counterexamples are searched on."""
+        m = self.m
+        if total and m.otherwise == "undefined":
+            m = replace(m, otherwise="stay")
+        prevs = _prevs(*exprs, *(e for c in monitors for e in (c.assume, c.goal)))
+        abstract = () if _reads_validity(*exprs) else self.abstractable
+        real = System(m, prevs, monitors, (), parametric)
+        return System(m, prevs, monitors, abstract, parametric), real
+
+    def result(self, job: Job) -> Result:
+        start = time.perf_counter()
+        verdict, search, detail, trace = job.run()
+        seconds = time.perf_counter() - start
+        proof = None
+        if search is not None:
+            proof = Proof(
+                engine=search.engine,
+                parametric=job.parametric,
+                k=search.k,
+                certificate=search.certificate,
+                certificate_checked=search.certificate_checked,
+                assumptions=self.assumed,
+                notes=tuple(search.notes) + ((search.reason,) if search.reason else ()),
+            )
+        return Result(job.prop, job.kind, verdict, job.expected, job.cite, seconds, trace, detail, proof)
+
+    def trace(self, path: Path) -> Counterexample:
+        model, system = path.model, path.system
+        names = system.m.states
+        steps = []
+        for n, terms in enumerate(path.terms):
+
+            def val(t: z3.ExprRef) -> Number:
+                return _number(model.eval(t, model_completion=True))
+
+            fired = next(
+                (t for t in system.m.transitions if z3.is_true(model.eval(terms.fired[t.id], model_completion=True))),
+                None,
+            )
+            state = names[int(val(path.frames[n].mode))]
+            nxt = names[int(val(path.frames[n + 1].mode))]
+            outcome = Outcome(fired.id if fired else None, fired.cite if fired else None, nxt)
+            steps.append(
+                Step(
+                    state,
+                    {k: bool(val(v)) for k, v in path.inputs[n].bools.items()},
+                    outcome,
+                    signals={k: val(v) for k, v in path.inputs[n].signals.items()},
+                    definitions={d.name: val(system.ev(Var(d.name), terms.pre)) for d in system.m.definitions},
+                    variables={k: val(v) for k, v in path.frames[n + 1].variables.items()},
+                    outputs={k: val(v) for k, v in system.outputs_at(terms.post).items()},
+                )
+            )
+        params = {
+            p.name: val(v) for p, v in zip(system.m.params, system.param_values(path.frames[0]).values(), strict=True)
+        }
+        return Counterexample(tuple(steps), path.loop_start, params)
+
+    def search(
+        self,
+        exprs: tuple[Expr, ...],
+        bad: Bad,
+        *,
+        parametric: bool,
+        monitors: tuple[Monitor, ...] = (),
+        total: bool = False,
+        certify: bool = True,
+    ) -> Search:
+        system, real = self.systems(exprs, parametric, monitors, total)
+        return decide(system, real, bad, self.limits, certify)
+
+    # --- checks --------------------------------------------------------------------------------------
+
+    def run_all(self) -> list[Result]:
+        m = self.m
+        results = [
+            Result(
+                "determinism",
+                "determinism",
+                "holds",
+                m.expected("determinism"),
+                m.cite,
+                0.0,
+                None,
+                "first-match: the first enabled transition in file order fires",
+            )
+        ]
+        for job in self.jobs():
+            results.append(self.result(job))
+        return results
+
+    def jobs(self) -> list[Job]:
+        """Every check but determinism, in report order."""
+        m, p = self.m, self.parametric
+        jobs = [Job("completeness", "completeness", m.expected("completeness"), m.cite, self.completeness, p)]
+        jobs += [
+            Job(f"reach:{s}", "reachability", m.expected(f"reach:{s}"), m.cite, partial(self.reach, s), p)
+            for s in m.states
+        ]
+        jobs += [
+            Job(f"fires:{t.id}", "dead-transition", m.expected(f"fires:{t.id}"), t.cite, partial(self.fires, t.id), p)
+            for t in m.transitions
+        ]
+        jobs += [
+            Job(f"range:{v.name}", "range", m.expected(f"range:{v.name}"), v.cite, partial(self.in_range, v.name), p)
+            for v in m.variables
+            if v.range is not None
+        ]
+        for inv in m.invariants:
+            q = p or inv.parametric
+            jobs.append(Job(inv.id, "invariant", inv.expect, inv.cite, partial(self.invariant, inv, q), q))
+        for live in m.liveness:
+            q = p or live.parametric
+            jobs.append(Job(live.id, "liveness", live.expect, live.cite, partial(self.liveness, live, q), q))
+        return jobs
+
+    def completeness(self) -> Decision:
+        if self.m.otherwise == "stay":
+            return "holds", None, "otherwise = stay: a state with no enabled transition keeps its state", None
+
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            return z3.Not(t.enabled_any)
+
+        found = self.search((), bad, parametric=self.parametric, total=True)
+        if found.answer == "reachable" and found.path is not None:
+            cx = self.trace(found.path)
+            last = cx.steps[-1]
+            stuck = Step(
+                last.state, last.inputs, Outcome(None, None, None), signals=last.signals, definitions=last.definitions
+            )
+            return (
+                "violated",
+                found,
+                f"in {last.state} no transition is enabled and otherwise = undefined",
+                Counterexample((*cx.steps[:-1], stuck), None, cx.params),
+            )
+        return self.proved(found)
+
+    def proved(self, found: Search, what: str = "") -> Decision:
+        if found.answer == "unreachable":
+            how = f"k-induction, k = {found.k}" if found.engine == "k-induction" else "PDR"
+            cert = (
+                ""
+                if found.certificate is None
+                else (", certificate checked" if found.certificate_checked else ", certificate NOT confirmed")
+            )
+            return "holds", found, f"proved by {how}{cert}{what}", None
+        return "unknown", found, found.reason, None
+
+    def reach(self, state: str) -> Decision:
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            return s.in_states(post.mode, [state])
+
+        found = self.search((), bad, parametric=self.parametric, certify=False)
+        if found.answer == "reachable" and found.path is not None:
+            return "holds", found, f"reached in {len(found.path.inputs)} steps", None
+        if found.answer == "unreachable":
+            return "violated", found, f"no run from {self.m.initial} reaches {state} (proved by {found.engine})", None
+        return "unknown", found, found.reason, None
+
+    def fires(self, tid: str) -> Decision:
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            return t.fired[tid]
+
+        found = self.search((), bad, parametric=self.parametric, certify=False)
+        if found.answer == "reachable" and found.path is not None:
+            return "holds", found, f"fires at step {len(found.path.inputs)}", None
+        if found.answer == "unreachable":
+            return "violated", found, f"never fires (proved by {found.engine})", None
+        return "unknown", found, found.reason, None
+
+    def in_range(self, name: str) -> Decision:
+        variable = next(v for v in self.m.variables if v.name == name)
+        assert variable.range is not None
+        low, high = variable.range
+
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            x = post.variables[name]
+            return z3.Or(x < value_of(low, variable.type), x > value_of(high, variable.type))
+
+        return self.violation(self.search((), bad, parametric=self.parametric), f"{name} leaves [{low}, {high}]")
+
+    def violation(self, found: Search, what: str) -> Decision:
+        if found.answer == "reachable" and found.path is not None:
+            return "violated", found, what, self.trace(found.path)
+        return self.proved(found)
+
+    def invariant(self, inv: Invariant, parametric: bool) -> Decision:
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            return z3.Not(s.ev(inv.expr, t.post))
+
+        found = self.search((inv.expr,), bad, parametric=parametric)
+        return self.violation(found, f"after the last step {inv.id} fails")
+
+    def liveness(self, live: Liveness, parametric: bool) -> Decision:
+        bound = live.bound
+        if bound is None and live.within is not None:
+            bound = Num(Fraction(live.within), False)
+        if bound is None:
+            return self.lasso(live, parametric)
+        monitor = Monitor("respond", live.assume, live.goal, bound)
+
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            return post.counters["respond"] >= s.ev(bound, t.post)
+
+        found = self.search((live.assume, live.goal, bound), bad, parametric=parametric, monitors=(monitor,))
+        return self.violation(found, "the assumption holds for the whole bound and the goal is not met")
+
+    def lasso(self, live: Liveness, parametric: bool) -> Decision:
+        _, real = self.systems((live.assume, live.goal), parametric)
+
+        def restricted(t: StepTerms) -> z3.BoolRef:
+            return z3.And(real.ev(live.assume, t.post), z3.Not(real.ev(live.goal, t.post)))
+
+        answer, path = lasso(real, restricted, self.limits)
+        search = Search(answer, path, "lasso", self.limits.lasso)
+        if answer == "reachable" and path is not None:
+            return "violated", search, "the assumption holds forever and the goal never does", self.trace(path)
+        search.reason = (
+            f"no lasso within {self.limits.lasso} steps; a response without a bound is not proved beyond that"
+        )
+        return "unknown", search, search.reason, None
+
+
+def _divisions(expr: Expr) -> list[Arith]:
+    return [n for n in nodes(expr) if isinstance(n, Arith) and n.op == "/"]
+
+
+def check_data_machine(machine: Machine, limits: Limits, parametric: bool = False) -> list[Result]:
+    return DataChecker(machine, limits, parametric).run_all()

@@ -1,0 +1,286 @@
+"""Is a bad step reachable? Bounded model checking, k-induction and PDR (z3's Spacer) on a `System`.
+
+Every question is "can some run take a step that satisfies `bad`?". BMC answers yes with the shortest run;
+k-induction answers no with the k it needed; PDR answers no with an inductive invariant (the certificate), which a
+separate query checks: it holds initially, is kept by every step, and excludes every bad step.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Literal
+
+import z3
+
+from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System
+from mlca_verify.model import Var
+
+Bad = Callable[[System, Frame, StepInputs, Frame, StepTerms], z3.BoolRef]
+Answer = Literal["reachable", "unreachable", "unknown"]
+
+
+@dataclass
+class Limits:
+    induction: int = 8  # the largest k tried by k-induction before PDR
+    depth: int = 60  # the deepest BMC run searched for a counterexample
+    lasso: int = 12  # the longest lasso searched for an unbounded response
+    timeout_ms: int = 10_000
+
+
+@dataclass
+class Path:
+    """A run found by BMC (on the real system): frames, inputs and step terms, with the model that fixes them."""
+
+    system: System
+    model: z3.ModelRef
+    frames: list[Frame]
+    inputs: list[StepInputs]
+    terms: list[StepTerms]
+    loop_start: int | None = None
+
+
+@dataclass
+class Search:
+    answer: Answer
+    path: Path | None = None
+    engine: str = ""
+    k: int | None = None
+    certificate: str | None = None
+    certificate_checked: bool = False
+    reason: str = ""
+    notes: list[str] = field(default_factory=list)
+
+
+class Unrolling:
+    """Frames 0..n of a system in one incremental solver; from the initial frame when `initial`."""
+
+    def __init__(self, system: System, initial: bool, tag: str, timeout_ms: int) -> None:
+        self.system = system
+        self.tag = tag
+        self.solver = z3.Solver()
+        self.solver.set("timeout", timeout_ms)
+        self.frames = [system.frame(f"{tag}0")]
+        self.inputs: list[StepInputs] = []
+        self.terms: list[StepTerms] = []
+        self.solver.add(system.well_formed(self.frames[0]))
+        if initial:
+            self.solver.add(system.init(self.frames[0]))
+
+    def extend(self) -> int:
+        """Add one step; return its index."""
+        n = len(self.inputs)
+        pre, i, post = self.frames[n], self.system.inputs(f"{self.tag}{n}"), self.system.frame(f"{self.tag}{n + 1}")
+        link, terms = self.system.step(pre, i, post)
+        self.solver.add(link, self.system.assumptions(pre, i), self.system.well_formed(post))
+        self.frames.append(post)
+        self.inputs.append(i)
+        self.terms.append(terms)
+        return n
+
+    def bad(self, bad: Bad, n: int) -> z3.BoolRef:
+        return bad(self.system, self.frames[n], self.inputs[n], self.frames[n + 1], self.terms[n])
+
+    def check(self, *extra: z3.BoolRef) -> z3.CheckSatResult:
+        return self.solver.check(*extra)
+
+    def path(self, steps: int, loop_start: int | None = None) -> Path:
+        n = steps
+        return Path(self.system, self.solver.model(), self.frames[: n + 1], self.inputs[:n], self.terms[:n], loop_start)
+
+
+def deeper(base: Unrolling, real: System, bad: Bad, limits: Limits) -> Search:
+    """Carry BMC on from where `base` stopped, up to `limits.depth` steps."""
+    for k in range(len(base.inputs), limits.depth):
+        base.extend()
+        found = base_case(base, real, bad, k, limits)
+        if found is not None:
+            return found
+    return Search("unknown", engine="bmc", reason=f"no counterexample within {limits.depth} steps")
+
+
+def concretize(abstract: Unrolling, real: System, bad: Bad, steps: int, timeout_ms: int) -> Path | None:
+    """A run of the real system along an abstract counterexample: at each step, signals for which every abstracted
+    definition takes the abstract run's value (one small query per step). None when some step has none."""
+    model = abstract.solver.model()
+
+    def fixed(term: z3.ExprRef) -> z3.ExprRef:
+        return model.eval(term, model_completion=True)
+
+    run = Unrolling(real, True, "r", timeout_ms)
+    for n in range(steps):
+        run.extend()
+        seen = abstract.inputs[n]
+        pins = [run.inputs[n].bools[k] == fixed(v) for k, v in seen.bools.items()]
+        if seen.abstract:
+            probe = z3.Solver()
+            probe.set("timeout", timeout_ms)
+            pre = run.frames[n]
+            frame_pins = [a == fixed(b) for a, b in zip(pre.terms(), abstract.frames[n].terms(), strict=True)]
+            before = real.valuation(pre, run.inputs[n])
+            wanted = [real.ev(Var(name), before) == fixed(v) for name, v in seen.abstract.items()]
+            probe.add(*frame_pins, *pins, *wanted, real.assumptions(pre, run.inputs[n]))
+            if probe.check() != z3.sat:
+                return None
+            found = probe.model()
+            pins += [v == found.eval(v, model_completion=True) for v in run.inputs[n].signals.values()]
+        run.solver.add(*pins)
+    if run.check(run.bad(bad, steps - 1)) != z3.sat:
+        return None
+    return run.path(steps)
+
+
+def k_induction(system: System, bad: Bad, real: System, limits: Limits) -> tuple[Search, Unrolling]:
+    """BMC and the induction step on `system` (the real one, or an abstraction of it), for k = 0, 1, ...: a bad
+    step from the initial frame is replayed on the real system and reported; an induction step that closes
+    proves."""
+    base = Unrolling(system, True, "b", limits.timeout_ms)
+    step = Unrolling(system, False, "i", limits.timeout_ms)
+    for k in range(limits.induction + 1):
+        base.extend()
+        found = base_case(base, real, bad, k, limits)
+        if found is not None:
+            return found, base
+        step.extend()
+        closed = step.check(step.bad(bad, k))
+        if closed == z3.unsat:
+            return Search("unreachable", engine="k-induction", k=k + 1), base
+        step.solver.add(z3.Not(step.bad(bad, k)))
+    return Search("unknown", engine="k-induction", k=limits.induction + 1, reason="induction not closed"), base
+
+
+def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits) -> Search | None:
+    """Is step k of `base` bad? A real counterexample, an unknown, or None (no bad step k; recorded)."""
+    answer = base.check(base.bad(bad, k))
+    if answer == z3.unknown:
+        return Search("unknown", engine="bmc", reason=f"BMC at depth {k + 1}: {base.solver.reason_unknown()}")
+    if answer == z3.sat:
+        if base.system is real:
+            return Search("reachable", base.path(k + 1), "bmc", k + 1)
+        path = concretize(base, real, bad, k + 1, limits.timeout_ms)
+        if path is None:
+            path = bmc_at(real, bad, k + 1, limits.timeout_ms)
+        if path is not None:
+            return Search("reachable", path, "bmc", k + 1)
+        return None
+    base.solver.add(z3.Not(base.bad(bad, k)))
+    return None
+
+
+def bmc_at(real: System, bad: Bad, steps: int, timeout_ms: int) -> Path | None:
+    """A real run of exactly `steps` steps whose last step is bad (the earlier steps are known not to be)."""
+    run = Unrolling(real, True, "x", timeout_ms)
+    for _ in range(steps):
+        run.extend()
+    return run.path(steps) if run.check(run.bad(bad, steps - 1)) == z3.sat else None
+
+
+def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
+    """Spacer (z3's PDR for constrained Horn clauses, with global guidance) on `system`: an inductive invariant
+    that excludes every bad step."""
+    f0, i, f1 = system.frame("p0"), system.inputs("p0"), system.frame("p1")
+    link, terms = system.step(f0, i, f1)
+    state = f0.terms()
+    inv = z3.Function("Inv", *[t.sort() for t in state], z3.BoolSort())
+    err = z3.Function("Err", z3.BoolSort())
+    engine = z3.Fixedpoint()
+    engine.set(engine="spacer", timeout=timeout_ms)
+    engine.set("xform.slice", False)
+    engine.set("xform.inline_linear", False)
+    engine.set("xform.inline_eager", False)
+    engine.set("spacer.global", True)
+    engine.register_relation(inv, err)
+    engine.declare_var(*{t.get_id(): t for t in [*state, *i.terms(), *f1.terms()]}.values())
+    engine.rule(inv(*state), z3.And(system.init(f0), system.well_formed(f0)))
+    moves = z3.And(inv(*state), link, system.assumptions(f0, i), system.well_formed(f1))
+    engine.rule(inv(*f1.terms()), moves)
+    engine.rule(err(), z3.And(moves, bad(system, f0, i, f1, terms)))
+    try:
+        answer = engine.query(err())
+    except z3.Z3Exception as exc:  # a timeout cancels the query
+        return Search("unknown", engine="pdr", reason=f"PDR: {exc.value.decode(errors='replace')}")
+    if answer == z3.sat:
+        return Search("reachable", engine="pdr", reason="PDR found a bad step reachable (on the abstraction)")
+    if answer == z3.unknown:
+        return Search("unknown", engine="pdr", reason=f"PDR: {engine.reason_unknown()}")
+    certificate = z3.simplify(z3.substitute_vars(engine.get_cover_delta(-1, inv), *state))
+    checked = check_certificate(system, bad, certificate, timeout_ms)
+    return Search("unreachable", engine="pdr", certificate=certificate.sexpr(), certificate_checked=checked)
+
+
+def _same(term: z3.ExprRef, among: list[z3.ExprRef]) -> bool:
+    return any(term.eq(t) for t in among)
+
+
+def check_certificate(system: System, bad: Bad, certificate: z3.BoolRef, timeout_ms: int) -> bool:
+    """A query of its own: the certificate holds initially, every step keeps it, and no step from it is bad."""
+    f0, i, f1 = system.frame("c0"), system.inputs("c0"), system.frame("c1")
+    link, terms = system.step(f0, i, f1)
+    pdr_frame = system.frame("p0")
+    at0 = z3.substitute(certificate, *zip(pdr_frame.terms(), f0.terms(), strict=True))
+    at1 = z3.substitute(certificate, *zip(pdr_frame.terms(), f1.terms(), strict=True))
+    moves = z3.And(at0, link, system.assumptions(f0, i), system.well_formed(f0), system.well_formed(f1))
+    queries = [
+        z3.And(system.init(f0), system.well_formed(f0), z3.Not(at0)),
+        z3.And(moves, z3.Not(at1)),
+        z3.And(moves, bad(system, f0, i, f1, terms)),
+    ]
+    for query in queries:
+        solver = z3.Solver()
+        solver.set("timeout", timeout_ms)
+        if solver.check(query) != z3.unsat:
+            return False
+    return True
+
+
+def lasso(real: System, restricted: Callable[[StepTerms], z3.BoolRef], limits: Limits) -> tuple[Answer, Path | None]:
+    """The shortest run that reaches a frame, then returns to it through steps that all satisfy `restricted`."""
+    run = Unrolling(real, True, "l", limits.timeout_ms)
+    for n in range(limits.lasso):
+        run.extend()
+        k = n + 1
+        loops = []
+        for j in range(k):
+            same = z3.And(*[a == b for a, b in zip(run.frames[j].terms(), run.frames[k].terms(), strict=True)])
+            loops.append(z3.And(same, *[restricted(run.terms[m]) for m in range(j, k)]))
+        answer = run.check(z3.Or(*loops))
+        if answer == z3.sat:
+            model = run.solver.model()
+            start = next(j for j, loop in enumerate(loops) if z3.is_true(model.eval(loop, model_completion=True)))
+            return "reachable", run.path(k, start)
+        if answer == z3.unknown:
+            return "unknown", None
+    return "unknown", None
+
+
+def decide(system: System, real: System, bad: Bad, limits: Limits, certify: bool = True) -> Search:
+    """k-induction first. When a bad step is expected (`certify` false: a witness is wanted), deeper BMC, then PDR;
+    otherwise PDR (for a proof, or for the certificate of a k-induction proof), then deeper BMC."""
+    start = time.perf_counter()
+    found, base = k_induction(system, bad, real, limits)
+    if found.answer == "reachable" or (found.answer == "unknown" and found.engine == "bmc"):
+        return found
+    if found.answer == "unknown" and not certify:
+        witness = deeper(base, real, bad, limits)
+        if witness.answer == "reachable":
+            return witness
+    remaining = max(1000, limits.timeout_ms - int(1000 * (time.perf_counter() - start)))
+    if found.answer == "unreachable":
+        if certify:
+            proof = pdr(system, bad, remaining)
+            found.certificate, found.certificate_checked = proof.certificate, proof.certificate_checked
+            if proof.answer != "unreachable":
+                found.notes.append(f"no certificate: {proof.reason or proof.answer}")
+        return found
+    proof = pdr(system, bad, remaining)
+    if proof.answer == "unreachable":
+        proof.k = found.k
+        proof.notes.append(f"k-induction did not close up to k = {found.k}")
+        return proof
+    if certify:
+        witness = deeper(base, real, bad, limits)
+        if witness.answer == "reachable":
+            return witness
+    reason = f"induction not closed at k = {found.k}; {proof.reason}; no counterexample within {len(base.inputs)} steps"
+    return Search("unknown", engine="k-induction+pdr", k=found.k, reason=reason)

@@ -1,0 +1,154 @@
+"""Machines with data: MLCA-T proved with certificates, a planted timer bug caught, the loader's type and unit
+errors at their columns, and the symbolic engine agreeing with the explicit one on the boolean machines."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import jsonschema
+import pytest
+
+from mlca_verify.cli import main
+from mlca_verify.errors import SpecError
+from mlca_verify.logic import check_all
+from mlca_verify.spec import load_spec, load_text
+from tests.conftest import ROOT
+
+MLCA_T = ROOT / "spec" / "mlca_t.toml"
+FAST_TIMER = ROOT / "tests" / "fixtures" / "mlca_t_fast_timer.toml"
+
+
+@pytest.fixture(scope="module")
+def mlca_t_results() -> dict[str, object]:
+    results = check_all(load_spec(MLCA_T).machine)
+    return {r.prop: r for r in results}
+
+
+def test_mlca_t_proves_every_property_for_every_param_value(mlca_t_results: dict[str, object]) -> None:
+    machine = load_spec(MLCA_T).machine
+    declared = [p.id for p in machine.invariants] + [p.id for p in machine.liveness]
+    assert all(p.parametric for p in machine.invariants) and all(p.parametric for p in machine.liveness)
+    for prop in declared:
+        r = mlca_t_results[prop]
+        assert r.verdict == "holds", (prop, r.detail)  # type: ignore[attr-defined]
+        proof = r.proof  # type: ignore[attr-defined]
+        assert proof is not None and proof.parametric
+        assert proof.certificate, prop
+        assert proof.certificate_checked, prop
+
+
+def test_mlca_t_builtins_reach_every_state_and_fire_every_transition(mlca_t_results: dict[str, object]) -> None:
+    bad = [p for p, r in mlca_t_results.items() if r.verdict != r.expected]  # type: ignore[attr-defined]
+    assert bad == []
+    assert any(p.startswith("range:") for p in mlca_t_results)
+
+
+def test_planted_timer_bug_gives_a_concrete_shortest_counterexample() -> None:
+    machine = load_spec(FAST_TIMER).machine
+    (deferral,) = [r for r in check_all(machine) if r.prop == "deferral"]
+    assert deferral.verdict == "violated"
+    cx = deferral.counterexample
+    assert cx is not None
+    assert cx.params["T_MIN"] == 3  # the smallest deferral the doubled timer can undercut
+    assert len(cx.steps) == 3
+    last = cx.steps[-1]
+    assert last.outcome.next in ("MOVING_LEFT", "MOVING_RIGHT") and not last.inputs["U"]
+    assert last.variables["need_age"] <= cx.params["T_MIN"]
+    assert [s.variables["waited"] for s in cx.steps] == [1, 3, 5]  # the timer counts two per step
+    assert set(last.signals) == {s.name for s in machine.signals}
+
+
+def test_fixture_differs_from_mlca_t_only_in_the_timer() -> None:
+    ours = MLCA_T.read_text().splitlines()
+    planted = [line for line in FAST_TIMER.read_text().splitlines() if not line.startswith("# ")]
+    changed = [(a, b) for a, b in zip(ours[-len(planted) :], planted, strict=False) if a != b]
+    assert len(changed) == 1 and "waited + 2" in changed[0][1]
+
+
+def test_json_schema_2_carries_proofs_and_values(tmp_path: Path) -> None:
+    out = tmp_path / "check.json"
+    assert main(["check", str(FAST_TIMER), "--only", "deferral,A3", "--quiet", "--json", str(out)]) == 1
+    doc = json.loads(out.read_text())
+    jsonschema.validate(doc, json.loads((ROOT / "tests" / "schemas" / "check.schema.json").read_text()))
+    assert doc["schema"] == "mlca-verify.check/2"
+    results = {r["property"]: r for r in doc["specs"][0]["results"]}
+    assert results["A3"]["proof"]["engine"] == "k-induction"
+    step = results["deferral"]["counterexample"]["steps"][-1]
+    assert {"signals", "definitions", "variables", "outputs"} <= set(step)
+    assert results["deferral"]["counterexample"]["params"]["T_MIN"] == 3
+
+
+@pytest.mark.parametrize("spec", ["mlca.toml", "mlca_r.toml"])
+def test_symbolic_engine_agrees_with_the_explicit_one(spec: str) -> None:
+    machine = load_spec(ROOT / "spec" / spec, compare=False).machine
+    explicit = {r.prop: r for r in check_all(machine)}
+    symbolic = {r.prop: r for r in check_all(replace(machine, data=True))}
+    for prop, r in symbolic.items():
+        if prop in explicit and r.kind != "liveness":
+            assert r.verdict == explicit[prop].verdict, prop
+            if r.verdict == "violated" and r.counterexample is not None:
+                assert explicit[prop].counterexample is not None
+                assert len(r.counterexample.steps) == len(explicit[prop].counterexample.steps), prop
+    bounded = [live.id for live in machine.liveness if live.within is not None]
+    for prop in bounded:
+        assert symbolic[prop].verdict == explicit[prop].verdict, prop
+    for live in machine.liveness:
+        if live.within is None:  # a lasso search: violated as the explicit engine says, or unknown, never holds
+            assert symbolic[live.id].verdict in (explicit[live.id].verdict, "unknown")
+            assert symbolic[live.id].verdict != "holds"
+
+
+HEAD = """
+[machine]
+name = "M"
+initial = "A"
+states = ["A", "B"]
+[inputs]
+go = { doc = "go" }
+[signals]
+d = { type = "real", unit = "m", range = [0.0, 10.0], doc = "a distance" }
+t = { type = "real", unit = "s", range = [0.0, 10.0], doc = "a time" }
+[params]
+K = { type = "int", default = 2, range = [1, 5], doc = "a bound" }
+"""
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (
+            '[definitions]\nX = { expr = "d + t > 1", doc = "x" }',
+            "x.toml:14:17: error: definition: '+' mixes units m and s",
+        ),
+        ('[definitions]\nX = { expr = "d > 1 + go", doc = "x" }', "'+' needs a number, got bool"),
+        (
+            '[[transition]]\nfrom = "A"\nto = "B"\nwhen = "d > 1"',
+            "guard cannot read 'd': a signal is read only by definitions",
+        ),
+        ('[[transition]]\nfrom = "A"\nto = "B"\nwhen = "prev(go)"', "prev() is for properties"),
+        ('[definitions]\nX = { expr = "Y", doc = "x" }\nY = { expr = "X", doc = "y" }', "a cycle"),
+        ('[variables]\nc = { type = "int", initial = 9, range = [0, 4], doc = "c" }', "lies outside its range"),
+        ('[variables]\nc = { type = "int", initial = 0, doc = "c" }', "needs a 'range'"),
+        ('[[transition]]\nfrom = "A"\nto = "B"\nwhen = "go"\ndo = "go = 1"', "'go' is not a variable"),
+        ('[params]\nP = { type = "int", default = 1.5, doc = "p" }', "whole number"),
+    ],
+)
+def test_loader_reports_data_mistakes_at_their_place(extra: str, message: str) -> None:
+    text = HEAD + extra + "\n"
+    if "[params]" in extra:
+        text = text.replace('[params]\nK = { type = "int", default = 2, range = [1, 5], doc = "a bound" }\n', "")
+    with pytest.raises(SpecError) as info:
+        load_text(text, "x.toml")
+    assert message in str(info.value)
+
+
+def test_require_cites_lists_each_uncited_element(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    spec = tmp_path / "u.toml"
+    spec.write_text(HEAD + '[[transition]]\nfrom = "A"\nto = "B"\nwhen = "go"\n')
+    assert main(["check", str(spec), "--quiet"]) == 0
+    assert main(["check", str(spec), "--quiet", "--require-cites"]) == 1
+    out = capsys.readouterr().out
+    for what in ("machine 'M'", "input 'go'", "signal 'd'", "param 'K'", "transition 't1'"):
+        assert f"uncited {what}" in out
