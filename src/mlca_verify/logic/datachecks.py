@@ -206,6 +206,8 @@ class DataChecker:
         return self.proved(found)
 
     def proved(self, found: Search, what: str = "") -> Decision:
+        if found.answer == "unreachable" and found.engine == "pdr" and not found.certificate_checked:
+            return "unknown", found, "PDR proved it, but a separate query did not confirm its certificate", None
         if found.answer == "unreachable":
             how = f"k-induction, k = {found.k}" if found.engine == "k-induction" else "PDR"
             cert = (

@@ -60,7 +60,7 @@ class Role:
                 "a numeric definition that reads a signal has no value when the sample is invalid: "
                 "only definitions read it"
             )
-        return f"a {self.label} reads only {', '.join(sorted(self.kinds))}"
+        return f"{'an' if self.label[0] in 'aeiou' else 'a'} {self.label} reads only {', '.join(sorted(self.kinds))}"
 
 
 _STEP = frozenset({"input", "param", "variable", "definition"})
