@@ -89,7 +89,8 @@ class Point:
             return self.variables[name]
         if name not in self.cache:
             self.cache[name] = self.derived(name)
-        return self.cache[name]
+        value: Value = self.cache[name]
+        return value
 
     def derived(self, name: str) -> Value:
         m = self.machine
@@ -107,8 +108,7 @@ class Point:
     def valid(self, signal: str) -> bool:
         s = next(s for s in self.machine.signals if s.name == signal)
         low, high = s.range
-        sample = self.inputs[signal]
-        assert not isinstance(sample, bool)
+        sample = _number(self.inputs[signal])
         return low <= sample <= high
 
 
@@ -146,23 +146,24 @@ def ev(expr: Expr, p: Point) -> Value:  # noqa: PLR0912
                 raise ZeroDivisionError(f"division by zero in {expr}")
             return _exact(Fraction(x) / Fraction(y))
         case Cmp(op=op, left=left, right=right):
-            a, b = ev(left, p), ev(right, p)
+            lhs, rhs = ev(left, p), ev(right, p)
             if op == "==":
-                return a == b
+                return lhs == rhs
             if op == "!=":
-                return a != b
-            x, y = _number(a), _number(b)
-            return {"<": x < y, "<=": x <= y, ">": x > y, ">=": x >= y}[op]
+                return lhs != rhs
+            u, w = _number(lhs), _number(rhs)
+            return {"<": u < w, "<=": u <= w, ">": u > w, ">=": u >= w}[op]
         case Ite(cond=cond, then=then, other=other):
             return ev(then, p) if ev(cond, p) else ev(other, p)
         case Call(fn="valid", args=(Var(name=name),)):
             return p.valid(name)
         case Call(fn="abs", args=(arg,)):
-            return abs(_number(ev(arg, p)))
+            value = _number(ev(arg, p))
+            return -value if value < 0 else value
         case Call(fn="min", args=args):
-            return min(_number(ev(a, p)) for a in args)
+            return min(_number(ev(e, p)) for e in args)
         case Call(fn="max", args=args):
-            return max(_number(ev(a, p)) for a in args)
+            return max(_number(ev(e, p)) for e in args)
     raise TypeError(f"cannot evaluate {expr!r}")
 
 
@@ -192,12 +193,24 @@ class Move:
 
 
 @dataclass(frozen=True)
+class Node:
+    """A node of a search: whether no step was taken yet, the frame, the prev() registers and the counter of a
+    bounded response."""
+
+    first: bool
+    mode: str
+    variables: tuple[Value, ...]
+    registers: tuple[Value, ...] = ()
+    counter: int | Fraction = 0
+
+
+@dataclass(frozen=True)
 class Check:
     """What a search looks for. `bad` sees the point before the step, the move, the point after it (whose
     `previous` answers prev()) and the bounded-response counter after the step."""
 
     prevs: tuple[Prev, ...]
-    bad: Callable[[Point, Move, Point, int], bool]
+    bad: Callable[[Point, Move, Point, int | Fraction], bool]
     total: bool = False  # `otherwise = "undefined"` read as "stay" (the completeness check)
     monitor: Liveness | None = None
     bound: Expr | None = None
@@ -324,41 +337,34 @@ class DataExplorer:
 
     # --- searches -------------------------------------------------------------------------------------------
 
-    def after(
-        self, check: Check, params: Mapping[str, Value], node: tuple[object, ...], mv: Move
-    ) -> tuple[Point, Point, list[Value], int, bool]:
-        """The points before and after move `mv` from search node `node`, the prev registers after it, the
-        counter after it and whether the step is bad."""
-        first, mode, variables, registers, counter = node
-        assert isinstance(mode, str) and isinstance(variables, tuple) and isinstance(counter, int)
-        before = self.point(mode, variables, mv.inputs, params)
-        if first:
+    def after(self, check: Check, params: Mapping[str, Value], node: Node, mv: Move) -> tuple[Point, Node, bool]:
+        """The point after move `mv` from search node `node` (its `previous` answers prev()), the node it leads
+        to and whether the step is bad."""
+        before = self.point(node.mode, node.variables, mv.inputs, params)
+        if node.first:
             previous = {p: ev(p.arg, before) for p in check.prevs}
         else:
-            assert isinstance(registers, tuple)
-            previous = dict(zip(check.prevs, registers, strict=True))
+            previous = dict(zip(check.prevs, node.registers, strict=True))
         post = self.point(mv.mode, mv.variables, mv.inputs, params, previous)
-        registers_after = [ev(p.arg, post) for p in check.prevs]
-        count = 0
+        registers = tuple(ev(p.arg, post) for p in check.prevs)
+        count: int | Fraction = 0
         if check.monitor is not None:
             assert check.bound is not None
             bound = _number(ev(check.bound, post))
             waiting = _truth(ev(check.monitor.assume, post)) and not _truth(ev(check.monitor.goal, post))
-            count = min(counter + 1, bound) if waiting else 0
-        return before, post, registers_after, count, check.bad(before, mv, post, count)
+            count = min(node.counter + 1, bound) if waiting else 0
+        nxt = Node(False, mv.mode, mv.variables, registers, count)
+        return post, nxt, check.bad(before, mv, post, count)
 
     def search(self, check: Check, params: Mapping[str, Value]) -> Found | None:
         """The shortest run from the initial frame whose last step is bad (breadth first)."""
-        mode, variables = self.initial()
-        start: tuple[object, ...] = (True, mode, variables, None, 0)
-        parent: dict[tuple[object, ...], tuple[tuple[object, ...], Mapping[str, Value]] | None] = {start: None}
+        start = Node(True, *self.initial())
+        parent: dict[Node, tuple[Node, Mapping[str, Value]] | None] = {start: None}
         queue = deque([start])
         while queue:
             node = queue.popleft()
-            _, mode, variables, _, _ = node
-            assert isinstance(mode, str) and isinstance(variables, tuple)
-            for mv in self.moves(params, mode, variables, check.total):
-                _, _, registers, count, bad = self.after(check, params, node, mv)
+            for mv in self.moves(params, node.mode, node.variables, check.total):
+                _, nxt, bad = self.after(check, params, node, mv)
                 if bad:
                     inputs = [mv.inputs]
                     back = parent[node]
@@ -366,7 +372,6 @@ class DataExplorer:
                         inputs.append(back[1])
                         back = parent[back[0]]
                     return Found(len(inputs), dict(params), tuple(reversed(inputs)))
-                nxt = (False, mv.mode, mv.variables, tuple(registers), count)
                 if nxt not in parent:
                     parent[nxt] = (node, mv.inputs)
                     queue.append(nxt)
@@ -463,7 +468,7 @@ class DataExplorer:
         recorded with the mode kept, and `assumed` or `enabled` false."""
         check = check or Check((), lambda pre, mv, post, n: False)
         mode, variables = self.initial()
-        node: tuple[object, ...] = (True, mode, variables, None, 0)
+        node = Node(True, mode, variables)
         records = []
         for i in inputs:
             before = self.point(mode, variables, i, params)
@@ -471,7 +476,7 @@ class DataExplorer:
             mv = self.step(params, mode, variables, i, total=True)
             if mv is None:  # an assumption fails: step as if it held, and say so
                 mv = self._forced(params, mode, variables, i)
-            _, post, registers, count, bad = self.after(check, params, node, mv)
+            post, node, bad = self.after(check, params, node, mv)
             records.append(
                 Record(
                     state=mode,
@@ -486,7 +491,6 @@ class DataExplorer:
                 )
             )
             mode, variables = mv.mode, mv.variables
-            node = (False, mode, variables, tuple(registers), count)
         return records
 
     def _forced(

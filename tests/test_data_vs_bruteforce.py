@@ -21,6 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mlca_verify.logic import check_all
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Machine
 from mlca_verify.spec import load_text
@@ -34,6 +35,10 @@ SETTINGS = settings(
 )
 UNKNOWN_SHARE = 0.05  # at most this share of the properties may be left unknown by the engine
 OPPOSITE = {"holds": "violated", "violated": "holds"}
+# The engine's default limits but a shallower last BMC (60 steps by default): it runs only when k-induction and PDR
+# both fail, and on these machines it finds nothing past the base case's 9 steps, so it only costs time. Every
+# shortest counterexample the explorer finds must fit in it (asserted), so it hides no violation.
+LIMITS = Limits(depth=20)
 
 
 # --- random specs ----------------------------------------------------------------------------------------------
@@ -109,6 +114,30 @@ def _formula(draw: st.DrawFn, n: Names, role: str, depth: int = 2) -> str:
     return f"({_formula(draw, n, role, depth - 1)}) {shape} ({_formula(draw, n, role, depth - 1)})"
 
 
+def _invariant(draw: st.DrawFn, n: Names) -> str:
+    """An invariant of a shape that often holds (a bound on a counter, its change per step, a guarded state)."""
+    v = draw(st.sampled_from(n.variables))
+    param = draw(st.sampled_from(list(n.params)))
+    state = draw(st.sampled_from(n.states))
+    return draw(
+        st.sampled_from(
+            [
+                f"{v} >= 0",
+                f"{v} <= {draw(st.integers(2, 5))}",
+                f"{v} <= max({param}, {draw(st.integers(2, 5))})",
+                f"{v} - prev({v}) <= 1",
+                f"{v} <= {param} + {draw(st.integers(0, 2))}",
+                f"{v} < {param} or state != {state}",
+                f"prev({v}) >= {param} -> {v} >= {param} - 1",
+                f"abs({v} - prev({v})) <= {draw(st.integers(1, 4))}",
+                f"prev(state) == {state} and state != {state} -> {_formula(draw, n, 'invariant', depth=1)}",
+                f"state == {state} -> {_formula(draw, n, 'invariant', depth=1)}",
+                f"({_formula(draw, n, 'invariant', depth=1)}) or {v} < {param} + 2",
+            ]
+        )
+    )
+
+
 def _update(draw: st.DrawFn, n: Names, v: str) -> str:
     """A value for variable `v` that stays small: every template is clamped or bounded by a param."""
     cap = draw(st.integers(2, 5))
@@ -150,38 +179,8 @@ def _table(name: str, fields: Mapping[str, object]) -> str:
     return f'{name} = {{ {", ".join(parts)}, doc = "d" }}'
 
 
-@st.composite
-def specs(draw: st.DrawFn) -> str:
-    n = Names()
-    n.states = [f"S{i}" for i in range(draw(st.integers(2, 3)))]
-    n.inputs = ["A", "B"][: draw(st.integers(1, 2))]
-    for name in ["P", "Q"][: draw(st.integers(1, 2))]:
-        low = draw(st.integers(0, 2))
-        high = low + draw(st.integers(0, 2))
-        n.params[name] = (low, high, draw(st.integers(low, high)))
-    low = draw(st.integers(0, 1))
-    n.signal = (low, low + draw(st.integers(1, 3)))
-    n.variables = ["c", "d"][: draw(st.integers(1, 2))]
-    otherwise = draw(st.sampled_from(["stay", "stay", "stay", "undefined"]))
-    lines = [
-        "[machine]",
-        'name = "R"',
-        f'initial = "{draw(st.sampled_from(n.states))}"',
-        "states = [" + ", ".join(f'"{s}"' for s in n.states) + "]",
-        f'otherwise = "{otherwise}"',
-        "",
-        "[inputs]",
-        *(f'{i} = {{ doc = "d" }}' for i in n.inputs),
-        "",
-        "[params]",
-        *(_table(p, {"type": "int", "default": d, "range": [lo, hi]}) for p, (lo, hi, d) in n.params.items()),
-        "",
-        "[signals]",
-        _table("x", {"type": "int", "unit": "1", "range": list(n.signal)}),
-        "",
-    ]
-    # definitions: a boolean one over the signal, maybe another through a numeric one, maybe one without a signal
-    param = draw(st.sampled_from(list(n.params)))
+def _definitions(draw: st.DrawFn, n: Names, param: str) -> list[str]:
+    """A boolean definition over the signal, maybe another through a numeric one, maybe one without a signal."""
     near = draw(
         st.sampled_from(
             [
@@ -215,7 +214,63 @@ def specs(draw: st.DrawFn) -> str:
         )
         definitions.append(_table("ready", {"expr": ready}))
         n.bool_defs.append("ready")
-    lines += ["[definitions]", *definitions, ""]
+    return definitions
+
+
+def _transitions(draw: st.DrawFn, n: Names) -> list[str]:
+    lines: list[str] = []
+    for k in range(draw(st.integers(3, 6))):
+        if draw(st.integers(0, 3)) == 0:
+            source = '"*"'
+        else:
+            chosen = draw(st.lists(st.sampled_from(n.states), min_size=1, max_size=2, unique=True))
+            source = "[" + ", ".join(f'"{s}"' for s in chosen) + "]"
+        lines += [
+            "[[transition]]",
+            f'id = "t{k + 1}"',
+            f"from = {source}",
+            f'to = "{draw(st.sampled_from(n.states))}"',
+            f'when = "{_formula(draw, n, "guard")}"',
+        ]
+        updated = draw(st.lists(st.sampled_from(n.variables), max_size=len(n.variables), unique=True))
+        if updated:
+            lines.append('do = "' + "; ".join(f"{v} = {_update(draw, n, v)}" for v in updated) + '"')
+        lines.append("")
+    return lines
+
+
+@st.composite
+def specs(draw: st.DrawFn) -> str:
+    n = Names()
+    n.states = [f"S{i}" for i in range(draw(st.integers(2, 3)))]
+    n.inputs = ["A", "B"][: draw(st.integers(1, 2))]
+    for name in ["P", "Q"][: draw(st.integers(1, 2))]:
+        low = draw(st.integers(0, 2))
+        high = low + draw(st.integers(1, 2))
+        n.params[name] = (low, high, draw(st.integers(low, high)))
+    low = draw(st.integers(0, 1))
+    n.signal = (low, low + draw(st.integers(1, 3)))
+    n.variables = ["c", "d"][: draw(st.integers(1, 2))]
+    otherwise = draw(st.sampled_from(["stay", "stay", "stay", "undefined"]))
+    lines = [
+        "[machine]",
+        'name = "R"',
+        f'initial = "{draw(st.sampled_from(n.states))}"',
+        "states = [" + ", ".join(f'"{s}"' for s in n.states) + "]",
+        f'otherwise = "{otherwise}"',
+        "",
+        "[inputs]",
+        *(f'{i} = {{ doc = "d" }}' for i in n.inputs),
+        "",
+        "[params]",
+        *(_table(p, {"type": "int", "default": d, "range": [lo, hi]}) for p, (lo, hi, d) in n.params.items()),
+        "",
+        "[signals]",
+        _table("x", {"type": "int", "unit": "1", "range": list(n.signal)}),
+        "",
+    ]
+    param = draw(st.sampled_from(list(n.params)))
+    lines += ["[definitions]", *_definitions(draw, n, param), ""]
     lines.append("[variables]")
     for v in n.variables:
         top = draw(st.integers(2, 4))
@@ -250,28 +305,13 @@ def specs(draw: st.DrawFn) -> str:
             )
         )
         lines += ["[[assume]]", 'id = "env"', f'expr = "{assumption}"', ""]
-    for k in range(draw(st.integers(3, 6))):
-        if draw(st.integers(0, 3)) == 0:
-            source = '"*"'
-        else:
-            chosen = draw(st.lists(st.sampled_from(n.states), min_size=1, max_size=2, unique=True))
-            source = "[" + ", ".join(f'"{s}"' for s in chosen) + "]"
-        lines += [
-            "[[transition]]",
-            f'id = "t{k + 1}"',
-            f"from = {source}",
-            f'to = "{draw(st.sampled_from(n.states))}"',
-            f'when = "{_formula(draw, n, "guard")}"',
-        ]
-        updated = draw(st.lists(st.sampled_from(n.variables), max_size=len(n.variables), unique=True))
-        if updated:
-            lines.append('do = "' + "; ".join(f"{v} = {_update(draw, n, v)}" for v in updated) + '"')
-        lines.append("")
+    lines += _transitions(draw, n)
     for k in range(draw(st.integers(1, 3))):
+        expr = _invariant(draw, n) if draw(st.booleans()) else _formula(draw, n, "invariant")
         lines += [
             "[[invariant]]",
             f'id = "inv{k}"',
-            f'expr = "{_formula(draw, n, "invariant")}"',
+            f'expr = "{expr}"',
             f"parametric = {'true' if draw(st.booleans()) else 'false'}",
             "",
         ]
@@ -307,24 +347,30 @@ def check_replay(ex: DataExplorer, prop: str, cx: Counterexample, parametric: bo
     inputs = [{**s.inputs, **s.signals} for s in cx.steps]
     records = ex.replay(cx.params, inputs, ex.check(prop))  # type: ignore[arg-type]
     for k, (step, rec) in enumerate(zip(cx.steps, records, strict=True)):
-        where = f"{prop}: step {k + 1} of {len(cx.steps)}"
-        assert step.state == rec.state, where
+        where = f"{prop}: step {k + 1} of {len(cx.steps)} (params {cx.params}, inputs {inputs[k]})"
+
+        def same(what: str, engine: object, explorer: object, where: str = where) -> None:
+            assert engine == explorer, f"{where}: {what} {engine} in the engine's counterexample, {explorer} replayed"
+
+        same("state", step.state, rec.state)
         assert rec.assumed, f"{where}: the environment assumption fails"
-        assert step.definitions == rec.definitions, where
+        same("definitions", step.definitions, rec.definitions)
         if prop == "completeness" and k == len(cx.steps) - 1:
-            assert step.outcome.transition is None and not rec.enabled, where
+            assert step.outcome.transition is None and not rec.enabled, f"{where}: {rec.transition} is enabled"
             continue
         if m.otherwise == "undefined":
             assert rec.enabled, f"{where}: no transition is enabled and otherwise = undefined"
-        assert (step.outcome.transition, step.outcome.next) == (rec.transition, rec.next), where
-        assert step.variables == rec.variables, where
-        assert step.outputs == rec.outputs, where
+        same("transition", (step.outcome.transition, step.outcome.next), (rec.transition, rec.next))
+        same("variables", step.variables, rec.variables)
+        same("outputs", step.outputs, rec.outputs)
     assert records[-1].bad, f"{prop}: the replayed counterexample does not end in a violation"
     assert not any(r.bad for r in records[:-1]), f"{prop}: the replayed counterexample is bad before its end"
 
 
 def _parametric(machine: Machine, prop: str) -> bool:
-    return any(p.id == prop and p.parametric for p in (*machine.invariants, *machine.liveness))
+    return any(i.id == prop and i.parametric for i in machine.invariants) or any(
+        lv.id == prop and lv.parametric for lv in machine.liveness
+    )
 
 
 def compare(machine: Machine, results: list[Result], tally: Counter[str]) -> None:
@@ -336,6 +382,11 @@ def compare(machine: Machine, results: list[Result], tally: Counter[str]) -> Non
     for prop, expected in brute.items():
         result = engine[prop]
         tally["properties"] += 1
+        if _parametric(machine, prop):
+            tally["parametric"] += 1
+            at_default = ex.shortest(ex.check(prop), parametric=False)
+            if (at_default.length if at_default else None) != expected.length:
+                tally["parametric:differs from the defaults"] += 1
         tally[f"{result.kind}:{result.verdict}"] += 1
         if result.verdict == "unknown":
             tally["unknown"] += 1
@@ -347,6 +398,10 @@ def compare(machine: Machine, results: list[Result], tally: Counter[str]) -> Non
         assert result.verdict == expected.verdict
         if expected.length is None:
             continue
+        assert expected.length <= LIMITS.depth, (
+            f"{prop}: a counterexample of {expected.length} steps is beyond the BMC depth"
+        )
+        tally["longest"] = max(tally["longest"], expected.length)
         cx = result.counterexample
         assert cx is not None, f"{prop}: violated without a counterexample"
         assert len(cx.steps) == expected.length, (
@@ -356,9 +411,156 @@ def compare(machine: Machine, results: list[Result], tally: Counter[str]) -> Non
         check_replay(ex, prop, cx, _parametric(machine, prop))
 
 
-def test_a_generated_spec_loads() -> None:
-    text = specs().example() if False else None
-    assert text is None
+# --- the explorer on machines worked out by hand --------------------------------------------------------------
+
+COUNTER = """
+[machine]
+name = "K"
+initial = "S0"
+states = ["S0", "S1", "S2"]
+
+[inputs]
+A = { doc = "d" }
+
+[params]
+P = { type = "int", default = 2, range = [1, 3], doc = "d" }
+
+[signals]
+x = { type = "int", unit = "1", range = [0, 3], doc = "d" }
+
+[definitions]
+gap = { expr = "x - c", doc = "d" }
+near = { expr = "gap <= 0", if_invalid = true, doc = "d" }
+
+[variables]
+c = { type = "int", initial = 0, range = [0, 2], every = "min(c + 1, 3)", doc = "d" }
+
+[[transition]]
+id = "t1"
+from = "S0"
+to = "S1"
+when = "A and near"
+do = "c = 0"
+
+[[transition]]
+id = "t2"
+from = "*"
+to = "S2"
+when = "c >= P"
+
+[[invariant]]
+id = "at-most-P"
+expr = "c <= P"
+
+[[invariant]]
+id = "at-most-P-any"
+expr = "c <= P"
+parametric = true
+
+[[invariant]]
+id = "counts"
+expr = "prev(c) == c - 1 or state == S1"
+
+[[liveness]]
+id = "two"
+assume = "not A"
+goal = "state == S2"
+within = 2
+
+[[liveness]]
+id = "three"
+assume = "not A"
+goal = "state == S2"
+within = "P + 1"
+"""
+
+STUCK = """
+[machine]
+name = "V"
+initial = "S0"
+states = ["S0", "S1"]
+otherwise = "undefined"
+
+[inputs]
+A = { doc = "d" }
+
+[signals]
+x = { type = "int", unit = "1", range = [0, 3], doc = "d" }
+
+[definitions]
+gap = { expr = "x + 2", doc = "d" }
+high = { expr = "gap > 5", if_invalid = IF_INVALID, doc = "d" }
+
+[[transition]]
+id = "t1"
+from = "S0"
+to = "S1"
+when = "high"
+
+[[transition]]
+id = "t2"
+from = "S0"
+to = "S0"
+when = "A"
+"""
+
+
+def _summary(text: str) -> dict[str, tuple[str, int | None]]:
+    return {k: (v.verdict, v.length) for k, v in DataExplorer(load_text(text, "known.toml")).verdicts().items()}
+
+
+def test_explorer_known_answers() -> None:
+    # c counts 1, 2, 3 (out of range at step 3); t2 fires once c >= P; prev(c) at the first step is c before it
+    # (0), so `counts` first fails at step 4, when c stays at 3 in S2; with P = 1, c <= P fails at step 2; in S0 or
+    # S1 without A, t2 takes at most 3 steps to reach S2 (c from 0 to 2, then t2 fires)
+    assert _summary(COUNTER) == {
+        "determinism": ("holds", None),
+        "completeness": ("holds", None),
+        "reach:S0": ("holds", None),
+        "reach:S1": ("holds", None),
+        "reach:S2": ("holds", None),
+        "fires:t1": ("holds", None),
+        "fires:t2": ("holds", None),
+        "range:c": ("violated", 3),
+        "at-most-P": ("violated", 3),
+        "at-most-P-any": ("violated", 2),
+        "counts": ("violated", 4),
+        "two": ("violated", 2),
+        "three": ("holds", None),
+    }
+    # `high` is false on every valid sample (gap is at most 5) and if_invalid on an invalid one: S1 is reached only
+    # through an invalid sample; S0 without A and with a valid sample enables nothing (otherwise = undefined)
+    assert _summary(STUCK.replace("IF_INVALID", "true")) == {
+        "determinism": ("holds", None),
+        "completeness": ("violated", 1),
+        "reach:S0": ("holds", None),
+        "reach:S1": ("holds", None),
+        "fires:t1": ("holds", None),
+        "fires:t2": ("holds", None),
+    }
+    assert _summary(STUCK.replace("IF_INVALID", "false")) == {
+        "determinism": ("holds", None),
+        "completeness": ("violated", 1),
+        "reach:S0": ("holds", None),
+        "reach:S1": ("violated", None),
+        "fires:t1": ("violated", None),
+        "fires:t2": ("holds", None),
+    }
+
+
+def test_explorer_replays_a_run() -> None:
+    machine = load_text(COUNTER, "known.toml")
+    ex = DataExplorer(machine)
+    runs = [{"A": False, "x": 0}, {"A": True, "x": 9}, {"A": False, "x": 1}, {"A": False, "x": 1}]
+    records = ex.replay({"P": 2}, runs, ex.check("counts"))
+    assert [(r.state, r.transition, r.next, r.variables["c"]) for r in records] == [
+        ("S0", None, "S0", 1),
+        ("S0", "t1", "S1", 0),  # x = 9 is invalid: near takes if_invalid (true)
+        ("S1", None, "S1", 1),
+        ("S1", None, "S1", 2),
+    ]
+    assert records[1].definitions == {"gap": 8, "near": True}
+    assert not any(r.bad for r in records)
 
 
 @pytest.mark.slow
@@ -369,7 +571,7 @@ def test_engine_agrees_with_bruteforce_on_data_machines() -> None:
     @given(specs())
     def run(text: str) -> None:
         machine = load_text(text, "random.toml")
-        compare(machine, check_all(machine), tally)
+        compare(machine, check_all(machine, limits=LIMITS), tally)
 
     run()
     assert tally["properties"] > 0

@@ -139,7 +139,7 @@ class MeaningChecker:
         liveness = self.liveness_list()
         self.unique_properties(invariants, liveness)
         if self.data and m.get("semantics", "first-match") != "first-match":
-            raise self.fail(("machine", "semantics"), "a machine with data needs semantics = \"first-match\"")
+            raise self.fail(("machine", "semantics"), 'a machine with data needs semantics = "first-match"')
         if self.data and self.doc.get("compare"):
             raise self.fail(("compare", 0), "[[compare]] is not supported for machines with data yet")
         step_s = None
