@@ -158,8 +158,8 @@ def ev(expr: Expr, p: Point) -> Value:  # noqa: PLR0912
         case Call(fn="valid", args=(Var(name=name),)):
             return p.valid(name)
         case Call(fn="abs", args=(arg,)):
-            value = _number(ev(arg, p))
-            return -value if value < 0 else value
+            number = _number(ev(arg, p))
+            return -number if number < 0 else number
         case Call(fn="min", args=args):
             return min(_number(ev(e, p)) for e in args)
         case Call(fn="max", args=args):
@@ -302,11 +302,12 @@ class DataExplorer:
         variables: tuple[Value, ...],
         inputs: Mapping[str, Value],
         total: bool = False,
+        assume: bool = True,
     ) -> Move | None:
-        """The step under `inputs`, or None when it cannot happen (an assumption fails, or no transition is
-        enabled and `otherwise = "undefined"`, unless `total`)."""
+        """The step under `inputs`, or None when it cannot happen: an assumption fails (unless not `assume`), or no
+        transition is enabled and `otherwise = "undefined"` (unless `total`)."""
         before = self.point(mode, variables, inputs, params)
-        if not all(_truth(ev(a.expr, before)) for a in self.m.assumptions):
+        if assume and not all(_truth(ev(a.expr, before)) for a in self.m.assumptions):
             return None
         fired = None
         for t in self.m.transitions:
@@ -409,7 +410,7 @@ class DataExplorer:
         return Check(_prevs(expr), lambda pre, mv, post, n: not _truth(ev(expr, post)))
 
     def liveness_check(self, live: Liveness) -> Check:
-        bound = live.bound if live.bound is not None else None
+        bound = live.bound
         if bound is None:
             if live.within is None:
                 raise ValueError(f"{live.id}: only bounded responses are explored")
@@ -463,9 +464,10 @@ class DataExplorer:
     def replay(
         self, params: Mapping[str, Value], inputs: Sequence[Mapping[str, Value]], check: Check | None = None
     ) -> list[Record]:
-        """Run the machine on the given inputs (boolean inputs and signals per step) and record every step. A
-        step that cannot happen (an assumption fails, or nothing is enabled under `otherwise = "undefined"`) is
-        recorded with the mode kept, and `assumed` or `enabled` false."""
+        """Run the machine on the given inputs (boolean inputs and signals per step) and record every step. A step
+        that cannot happen is still taken and recorded as such: one whose assumptions fail is taken as if they
+        held (`assumed` false); one with no enabled transition keeps the mode (`enabled` false, whatever
+        `otherwise` says)."""
         check = check or Check((), lambda pre, mv, post, n: False)
         mode, variables = self.initial()
         node = Node(True, mode, variables)
@@ -473,9 +475,8 @@ class DataExplorer:
         for i in inputs:
             before = self.point(mode, variables, i, params)
             assumed = all(_truth(ev(a.expr, before)) for a in self.m.assumptions)
-            mv = self.step(params, mode, variables, i, total=True)
-            if mv is None:  # an assumption fails: step as if it held, and say so
-                mv = self._forced(params, mode, variables, i)
+            mv = self.step(params, mode, variables, i, total=True, assume=False)
+            assert mv is not None
             post, node, bad = self.after(check, params, node, mv)
             records.append(
                 Record(
@@ -492,24 +493,6 @@ class DataExplorer:
             )
             mode, variables = mv.mode, mv.variables
         return records
-
-    def _forced(
-        self, params: Mapping[str, Value], mode: str, variables: tuple[Value, ...], inputs: Mapping[str, Value]
-    ) -> Move:
-        saved = self.m
-        try:
-            self.m = _without_assumptions(saved)
-            mv = self.step(params, mode, variables, inputs, total=True)
-        finally:
-            self.m = saved
-        assert mv is not None
-        return mv
-
-
-def _without_assumptions(machine: Machine) -> Machine:
-    from dataclasses import replace
-
-    return replace(machine, assumptions=())
 
 
 def _prevs(*exprs: Expr) -> tuple[Prev, ...]:

@@ -152,3 +152,56 @@ def test_require_cites_lists_each_uncited_element(capsys: pytest.CaptureFixture[
     out = capsys.readouterr().out
     for what in ("machine 'M'", "input 'go'", "signal 'd'", "param 'K'", "transition 't1'"):
         assert f"uncited {what}" in out
+
+
+def test_require_cites_locates_each_element_in_sarif(tmp_path: Path) -> None:
+    spec = tmp_path / "u.toml"
+    spec.write_text(HEAD + '[definitions]\nnear = { expr = "d < 2.0", doc = "close" }\n')
+    out = tmp_path / "c.sarif"
+    assert main(["check", str(spec), "--quiet", "--require-cites", "--sarif", str(out)]) == 1
+    results = json.loads(out.read_text())["runs"][0]["results"]
+    where = {
+        r["message"]["text"]: r["locations"][0]["physicalLocation"]["region"]["startLine"]
+        for r in results
+        if r["ruleId"] == "citation"
+    }
+    lines = spec.read_text().splitlines()
+    assert lines[where["uncited definition 'near'"] - 1].startswith("near =")
+    assert lines[where["uncited param 'K'"] - 1].startswith("K =")
+
+
+def _reworded(tmp_path: Path, old: str, new: str) -> Path:
+    text = MLCA_T.read_text()
+    assert old in text
+    path = tmp_path / "mlca_t.toml"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "label", "code"),
+    [
+        ('"not N -> state == IDLE"', '"not (state != IDLE and not N)"', "equivalent (reworded)", 0),
+        ('"state == MOVING_LEFT -> N and L"', '"state == MOVING_LEFT -> N"', "WEAKENED (REGRESSION)", 1),
+        ('within = "T_MIN + 2"', 'within = "T_MIN + 3"', "WEAKENED (REGRESSION)", 1),
+        ('within = "T_MIN + 2"', 'within = "T_MIN + 2"\nwithin_s = 1.0', None, 2),
+        ('assume = "N and L"', 'assume = "N"', "strengthened", 1),
+    ],
+)
+def test_diff_compares_properties_by_meaning(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str, label: str | None, code: int
+) -> None:
+    changed = _reworded(tmp_path, old, new)
+    assert main(["diff", str(MLCA_T), str(changed)]) == code
+    out = capsys.readouterr().out
+    if label is not None:
+        assert label in out
+
+
+def test_a_divisor_that_can_be_zero_is_a_finding_not_a_crash() -> None:
+    machine = load_spec(ROOT / "tests" / "fixtures" / "division.toml").machine
+    results = {r.prop: r for r in check_all(machine)}
+    assert results["div:ttc"].verdict == "violated"
+    cx = results["div:ttc"].counterexample
+    assert cx is not None and cx.steps[-1].signals["v"] == 0
+    assert results["div:safe_ttc"].verdict == "holds"

@@ -239,6 +239,12 @@ def _transitions(draw: st.DrawFn, n: Names) -> list[str]:
     return lines
 
 
+def _modes(draw: st.DrawFn, pid: str) -> list[tuple[str, str]]:
+    """A property once, parametric or not, or twice (`pid` with the defaults, `pid-p` for every param value)."""
+    mode = draw(st.sampled_from(["false", "true", "both"]))
+    return [(pid, "false"), (f"{pid}-p", "true")] if mode == "both" else [(pid, mode)]
+
+
 @st.composite
 def specs(draw: st.DrawFn) -> str:
     n = Names()
@@ -247,7 +253,10 @@ def specs(draw: st.DrawFn) -> str:
     for name in ["P", "Q"][: draw(st.integers(1, 2))]:
         low = draw(st.integers(0, 2))
         high = low + draw(st.integers(1, 2))
-        n.params[name] = (low, high, draw(st.integers(low, high)))
+        # the default is often the top of the range, where bounds like `c <= P` and `within = "P + 1"` are most
+        # lenient: a parametric property then tends to fail for some value that the default passes
+        default = draw(st.sampled_from([high, high, low, (low + high) // 2]))
+        n.params[name] = (low, high, default)
     low = draw(st.integers(0, 1))
     n.signal = (low, low + draw(st.integers(1, 3)))
     n.variables = ["c", "d"][: draw(st.integers(1, 2))]
@@ -307,24 +316,21 @@ def specs(draw: st.DrawFn) -> str:
         lines += ["[[assume]]", 'id = "env"', f'expr = "{assumption}"', ""]
     lines += _transitions(draw, n)
     for k in range(draw(st.integers(1, 3))):
-        expr = _invariant(draw, n) if draw(st.booleans()) else _formula(draw, n, "invariant")
+        expr = _invariant(draw, n) if draw(st.integers(0, 2)) else _formula(draw, n, "invariant")
+        for pid, parametric in _modes(draw, f"inv{k}"):
+            lines += ["[[invariant]]", f'id = "{pid}"', f'expr = "{expr}"', f"parametric = {parametric}", ""]
+    within = draw(st.sampled_from(["1", "2", "3", f'"{param} + 1"', f'"max({param}, 1)"', f'"{param} + 2"']))
+    assume, goal = _formula(draw, n, "assume", depth=1), _formula(draw, n, "goal", depth=1)
+    for pid, parametric in _modes(draw, "live0"):
         lines += [
-            "[[invariant]]",
-            f'id = "inv{k}"',
-            f'expr = "{expr}"',
-            f"parametric = {'true' if draw(st.booleans()) else 'false'}",
+            "[[liveness]]",
+            f'id = "{pid}"',
+            f'assume = "{assume}"',
+            f'goal = "{goal}"',
+            f"within = {within}",
+            f"parametric = {parametric}",
             "",
         ]
-    within = draw(st.sampled_from(["1", "2", "3", f'"{param} + 1"', f'"max({param}, 1)"', f'"{param} + 2"']))
-    lines += [
-        "[[liveness]]",
-        'id = "live0"',
-        f'assume = "{_formula(draw, n, "assume", depth=1)}"',
-        f'goal = "{_formula(draw, n, "goal", depth=1)}"',
-        f"within = {within}",
-        f"parametric = {'true' if draw(st.booleans()) else 'false'}",
-        "",
-    ]
     return "\n".join(lines)
 
 

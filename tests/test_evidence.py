@@ -5,6 +5,7 @@ from __future__ import annotations
 import difflib
 import hashlib
 import json
+import os
 import re
 import sqlite3
 import subprocess
@@ -14,11 +15,14 @@ from pathlib import Path
 
 import jsonschema
 import pytest
+from markupsafe import escape
 from playwright.sync_api import sync_playwright
 
 from mlca_verify.cli import main
 from mlca_verify.evidence import ClosedLoopRuns
-from mlca_verify.evidence.collect import closed_loop
+from mlca_verify.evidence.collect import NO_DATA_CODE, closed_loop
+from mlca_verify.model import show
+from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
@@ -172,3 +176,160 @@ def test_mlca_verify_imports_no_sim_check_and_holds_no_sql() -> None:
     assert done.stdout == "[]\n"
     sources = (ROOT / "src" / "mlca_verify").rglob("*.py")
     assert [p.name for p in sources if re.search(r"\bsqlite3\b|\bSELECT\b", p.read_text(encoding="utf-8"))] == []
+
+
+# --- a machine with data (spec/mlca_t.toml): the spec's own evidence, no claim about code ---------------------
+
+MLCA_T = "spec/mlca_t.toml"
+HOSTILE = '</td><script>alert("doc")</script><img src=x onerror=alert(1)>&amp; {{ d.ok }}'
+NO_CODE_WORDS = re.compile(r"\b(code|generated|C|Python|Frama-C|closed-loop)\b")
+
+
+def _escaped(text: str) -> str:
+    """`text` as the page's templates escape it."""
+    return str(escape(text))
+
+
+@pytest.fixture(scope="module")
+def data_bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The evidence of a machine with data, built twice at two different times, each by its own process (as a
+    reproducible build runs it)."""
+    out = tmp_path_factory.mktemp("evidence-data")
+    for name, epoch in (("a", "1764000000"), ("b", "1764003600")):
+        command = [sys.executable, "-m", "mlca_verify", "evidence", MLCA_T, "--out", str(out / name)]
+        env = {**os.environ, "SOURCE_DATE_EPOCH": epoch}
+        done = subprocess.run(command, check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stdout + done.stderr
+    return out / "a", out / "b"
+
+
+def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles: tuple[Path, Path]) -> None:
+    m = load_spec(ROOT / MLCA_T).machine
+    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+    schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
+    jsonschema.validate(doc, schema, format_checker=jsonschema.FormatChecker())
+    assert doc["ok"] is True and doc["spec"]["machine"] == m.name
+    data = doc["data_machine"]
+    assert data["step_s"] == "0.1"
+    params = {p["name"]: p for p in data["params"]}
+    assert list(params) == [p.name for p in m.params] and len(params) >= 4
+    assert params["T_MIN"] == {**params["T_MIN"], "type": "int", "default": "20", "range": ["1", "100"], "unit": "step"}
+    assert params["TIME_GAP"]["default"] == "1.0" and params["FOLLOWER_DECEL"]["unit"] == "m/s^2"
+    assert [(p["doc"], p["cite"]) for p in params.values()] == [(p.doc, p.cite) for p in m.params]
+    signals = {s["name"]: s for s in data["signals"]}
+    assert signals["v"]["unit"] == "m/s" and signals["v"]["range"] == ["0.0", "70.0"]
+    assert list(signals) == [s.name for s in m.signals]
+    assert [v["name"] for v in data["variables"]] == [v.name for v in m.variables]
+    assert [d["name"] for d in data["definitions"]] == [d.name for d in m.definitions]
+    assert [o["name"] for o in data["outputs"]] == [o.name for o in m.outputs] == ["command"]
+    assert m.assumptions
+    assert [(a["id"], a["expr"], a["doc"], a["cite"]) for a in data["assumptions"]] == [
+        (a.id, show(a.expr), a.doc, a.cite) for a in m.assumptions
+    ]
+    # the proofs: engine, k, parametric, the certificate and whether a separate query confirmed it
+    proofs = {p["property"]: p for p in doc["proofs"]}
+    declared = [p.id for p in (*m.invariants, *m.liveness) if p.parametric and p.expect == "holds"]
+    assert len(declared) >= 10
+    relied = {a["id"]: a["relied_on_by"] for a in data["assumptions"]}
+    for prop in declared:
+        proof = proofs[prop]["proof"]
+        assert proof["parametric"] is True and proof["engine"] in ("k-induction", "pdr")
+        assert proof["certificate"] and proof["certificate_checked"] is True
+        assert all(prop in relied[a] for a in proof["assumptions"])
+    assert "proof" not in proofs["determinism"]
+    # no generated code: no conformance, no artifacts, no closed loop, and the argument claims nothing of code
+    assert doc["conformance"] == [] and doc["artifacts"] == [] and doc["generated_code"]["available"] is False
+    assert doc["closed_loop"]["status"] == "undeveloped"
+    assert all(r["code"] == [] and r["tests"] == [] for r in doc["traceability"])
+    assert not any(p["path"].startswith("templates/") for p in doc["inputs"])
+    nodes = {n["id"]: n for n in doc["argument"]}
+    claims = [n for n in doc["argument"] if n["type"] in ("goal", "undeveloped", "solution", "strategy")]
+    assert [n["text"] for n in claims if NO_CODE_WORDS.search(n["text"])] == []
+    assert "for every param value in range" in nodes["G1"]["text"]
+    g3 = nodes["G3"]
+    assert "every param value" in g3["text"] and g3["ok"] is True
+    backing = [n for n in doc["argument"] if n["parent"] == "G3"]
+    assert [n["text"].split(" ")[0] for n in backing] == declared and {n["type"] for n in backing} == {"solution"}
+    assumptions = [n for n in doc["argument"] if n["type"] == "assumption"]
+    assert [n["text"].split(":")[0] for n in assumptions] == [a.id for a in m.assumptions]
+    assert [n["link"] for n in assumptions] == [f"#assume-{a.id}" for a in m.assumptions]
+    html = (data_bundles[0] / "index.html").read_text()
+    assert "code generation for machines with data (params, signals, variables) is not available yet" in html
+    assert all(f'id="assume-{a.id}"' in html for a in m.assumptions) and 'id="param-T_MIN"' in html
+    assert "confirmed by a separate query" in html
+    for prop in declared:  # the certificate itself, escaped as all text is
+        assert _escaped(proofs[prop]["proof"]["certificate"]) in html
+    assert ">pass<" not in html and "frama-c-wp" not in html
+
+
+def test_data_machine_bundles_differ_only_in_the_timestamp(data_bundles: tuple[Path, Path]) -> None:
+    for name in ("evidence.json", "index.html"):
+        a = (data_bundles[0] / name).read_text().splitlines()
+        b = (data_bundles[1] / name).read_text().splitlines()
+        changed = [
+            line
+            for line in difflib.unified_diff(a, b, lineterm="", n=0)
+            if line[:1] in "+-" and line[:3] not in ("+++", "---")
+        ]
+        assert len(changed) == 2, changed
+        assert all("2025-11-24T1" in line for line in changed)
+
+
+@pytest.mark.slow
+def test_data_machine_page_loads_in_chromium_and_every_link_resolves(data_bundles: tuple[Path, Path]) -> None:
+    page_url = (data_bundles[0] / "index.html").as_uri()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
+        page = browser.new_page()
+        problems: list[str] = []
+        requests: list[str] = []
+        page.on("console", lambda m: problems.append(m.text) if m.type in ("error", "warning") else None)
+        page.on("pageerror", lambda e: problems.append(str(e)))
+        page.on("request", lambda r: requests.append(r.url))
+        page.goto(page_url)
+        missing = page.evaluate(
+            "[...document.querySelectorAll('a[href^=\"#\"]')].map(a => a.getAttribute('href'))"
+            ".filter(h => !document.getElementById(h.slice(1)))"
+        )
+        assumptions = page.evaluate("document.querySelectorAll('.node.assumption').length")
+        certificates = page.evaluate("document.querySelectorAll('tr[id^=\"proof-\"] details pre').length")
+        browser.close()
+    assert problems == [] and requests == [page_url] and missing == []
+    m = load_spec(ROOT / MLCA_T).machine
+    assert assumptions == len(m.assumptions) and certificates >= len(m.invariants) + len(m.liveness)
+
+
+def test_hostile_text_in_a_data_machine_reaches_the_page_escaped(tmp_path: Path) -> None:
+    text = (ROOT / MLCA_T).read_text()
+    hostile = json.dumps(HOSTILE)  # a TOML basic string holding it
+    param = f'HOSTILE_P = {{ type = "real", default = 1.5, range = [0.25, 2.0], unit = "m", doc = {hostile}, cite = {hostile} }}'
+    assert text.count("[params]\n") == 1
+    text = (
+        text.replace("[params]\n", f"[params]\n{param}\n")
+        + f'\n[[assume]]\nid = "hostile"\nexpr = "true"\ndoc = {hostile}\ncite = {hostile}\n'
+    )
+    spec = tmp_path / "hostile.toml"
+    spec.write_text(text)
+    out = tmp_path / "out"
+    assert main(["evidence", str(spec), "--out", str(out)]) == 0
+    doc = json.loads((out / "evidence.json").read_text())
+    assert doc["data_machine"]["params"][0] == {
+        "name": "HOSTILE_P", "type": "real", "default": "1.5", "range": ["0.25", "2.0"], "unit": "m", "doc": HOSTILE,
+        "cite": HOSTILE,
+    }  # fmt: skip
+    assert doc["data_machine"]["assumptions"][-1]["doc"] == HOSTILE
+    html = (out / "index.html").read_text()
+    assert "<script" not in html and "<img" not in html and "</td><script" not in html
+    assert html.count(_escaped(HOSTILE)) >= 5  # the param's doc and cite, the assumption's (twice) and its node
+
+
+@pytest.mark.usefixtures("at_root")
+def test_a_data_machine_with_a_results_database_is_refused_before_the_proofs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = tmp_path / "results.sqlite"
+    db.write_bytes(b"")
+    assert main(["evidence", MLCA_T, "--db", str(db), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"{db}: error: closed-loop runs drive generated code; {NO_DATA_CODE}\n"
+    assert not (tmp_path / "out" / "evidence.json").exists()

@@ -23,6 +23,8 @@ RULES = {
     "invariant": "A declared invariant fails after some step.",
     "liveness": "A declared response property fails on some run.",
     "equivalence": "Two machines behave differently on some input sequence.",
+    "range": "A variable leaves its declared range.",
+    "citation": "A spec element cites no source (check --require-cites).",
 }
 
 Checked = tuple[str, Machine, Sequence[Result]]  # spec path, machine, results
@@ -35,8 +37,20 @@ def element_loc(machine: Machine, prop: str) -> Loc:
         return next(t.loc for t in machine.transitions if t.id == name)
     if kind == "equiv":
         return next(c.loc for c in machine.comparisons if c.other.name == name)
+    if kind == "range":
+        return next(v.loc for v in machine.variables if v.name == name)
     declared = {i.id: i.loc for i in machine.invariants} | {p.id: p.loc for p in machine.liveness}
     return declared.get(prop, machine.loc)
+
+
+def _located(rule: str, level: str, text: str, path: str, loc: Loc) -> dict[str, Any]:
+    region = {"startLine": loc.line, "startColumn": loc.col}
+    return {
+        "ruleId": rule,
+        "level": level,
+        "message": {"text": text},
+        "locations": [{"physicalLocation": {"artifactLocation": {"uri": path}, "region": region}}],
+    }
 
 
 def _message(r: Result) -> str:
@@ -87,9 +101,10 @@ def junit_xml(checked: Sequence[Checked]) -> str:
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def sarif(checked: Sequence[Checked]) -> dict[str, Any]:
+def sarif(checked: Sequence[Checked], uncited_elements: Sequence[tuple[str, Loc, str]] = ()) -> dict[str, Any]:
     """A SARIF 2.1.0 log: a result for every violated or unknown verdict. A violation the spec expects is
-    reported with an in-source suppression (its `expect`), so tools show it as accepted, not new."""
+    reported with an in-source suppression (its `expect`), so tools show it as accepted, not new. Each uncited
+    element given (spec path, where, what) is a warning at its own line."""
     results: list[dict[str, Any]] = []
     for path, machine, checked_results in checked:
         for r in checked_results:
@@ -114,6 +129,8 @@ def sarif(checked: Sequence[Checked]) -> dict[str, Any]:
             if r.ok:
                 entry["suppressions"] = [{"kind": "inSource", "justification": f'expect = "{r.expected}" in the spec'}]
             results.append(entry)
+    for path, where, what in uncited_elements:
+        results.append(_located("citation", "warning", f"uncited {what}", path, where))
     rules = [{"id": kind, "shortDescription": {"text": text}} for kind, text in RULES.items()]
     return {
         "$schema": SARIF_SCHEMA,

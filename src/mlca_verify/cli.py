@@ -21,14 +21,16 @@ from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
-from mlca_verify.errors import ToolError, UsageError
+from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
 from mlca_verify.evidence import ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.induction import Limits
+from mlca_verify.logic.meaning import property_changes
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
+from mlca_verify.model import show
 from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
@@ -143,16 +145,17 @@ def cmd_check(args: argparse.Namespace) -> int:
     loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
     limits = Limits(depth=max(1, min(args.depth, WITHIN_LIMIT)), timeout_ms=args.timeout_ms)
-    uncited_total = 0
+    missing: list[tuple[str, Loc, str]] = []
     for spec in loaded:
         if args.require_cites:
             for loc, what in uncited(spec.machine):
                 say(f"{loc}: uncited {what}")
-                uncited_total += 1
+                missing.append((spec.path, loc, what))
         results = _select(check_all(spec.machine, args.timeout_ms, args.parametric, limits), args.only)
         checked.append((spec, results))
         if not args.quiet:
-            say(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names))
+            assumed = [f"{a.id}: {show(a.expr)}" for a in spec.machine.assumptions]
+            say(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names, assumed))
         say(f"{spec.path}: {report.summary_text(results)}\n")
     if args.json:
         write_json(args.json, report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
@@ -160,13 +163,13 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.junit:
         write_text(args.junit, ci_formats.junit_xml(for_ci))
     if args.sarif:
-        write_json(args.sarif, ci_formats.sarif(for_ci))
+        write_json(args.sarif, ci_formats.sarif(for_ci, missing))
     if args.emit_tests:
         _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
-    if uncited_total:
-        say(f"{uncited_total} spec elements cite no source (--require-cites)")
+    if missing:
+        say(f"{len(missing)} spec elements cite no source (--require-cites)")
     every_ok = all(r.ok for _, results in checked for r in results)
-    return EXIT_OK if every_ok and not uncited_total else EXIT_FINDING
+    return EXIT_OK if every_ok and not missing else EXIT_FINDING
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
@@ -190,14 +193,18 @@ def cmd_diff(args: argparse.Namespace) -> int:
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
     say(report.regression_text(changes, transition_changes(old.machine, new.machine)))
+    meaning = property_changes(old.machine, new.machine, args.timeout_ms)
+    say(report.meaning_text(meaning))
     if old.machine.has_data or new.machine.has_data:
         say("equivalence: not compared (machines with data are compared by their verdicts only)")
     else:
         _say_equivalence(old, new, args.timeout_ms)
     regressions = [c.prop for c in changes if c.regression]
+    regressions += [c.prop for c in meaning if c.regression and c.prop not in regressions]
     if regressions:
         noun = "regression" if len(regressions) == 1 else "regressions"
-        say(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
+        listed = ", ".join(regressions)
+        say(f"\n{len(regressions)} {noun}: {listed} (a property that held no longer does, or says less)")
         return EXIT_FINDING
     say(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
     return EXIT_OK
@@ -341,10 +348,13 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     if db is not None and not db.is_file():
         raise UsageError(f"{db}: error: results database not found")
     writable_folder(Path(args.out))
-    say(f"collecting evidence for {args.spec}: proofs, conformance (Frama-C takes a few seconds), readings", flush=True)
     spec = load_spec(args.spec, confine=not args.allow_outside)
+    if spec.machine.has_data and db is not None:  # the bundle of a machine with data covers the spec alone
+        raise UsageError(f"{db}: error: closed-loop runs drive generated code; {NO_DATA_CODE}")
+    work = "proofs, conformance (Frama-C takes a few seconds), readings"
     if spec.machine.has_data:
-        raise UsageError(f"{args.spec}: error: evidence bundles need generated code; {NO_DATA_CODE}")
+        work = "proofs and readings (no code is generated for machines with data)"
+    say(f"collecting evidence for {args.spec}: {work}", flush=True)
     runs = None
     if db is not None:  # read through the results database's API, before the long work starts
         try:

@@ -7,6 +7,7 @@ from typing import Any
 
 from mlca_verify.escape import terminal
 from mlca_verify.logic.equiv import EquivalenceResult, Region
+from mlca_verify.logic.meaning import PropertyChange
 from mlca_verify.logic.results import Counterexample, Outcome, Result
 from mlca_verify.regress import TransitionChange, VerdictChange
 
@@ -85,7 +86,9 @@ def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") 
     return text
 
 
-def results_text(spec_path: str, machine: str, results: Sequence[Result], inputs: Sequence[str]) -> str:
+def results_text(
+    spec_path: str, machine: str, results: Sequence[Result], inputs: Sequence[str], assumptions: Sequence[str] = ()
+) -> str:
     rows = []
     for r in results:
         status = "ok" if r.ok else "UNEXPECTED"
@@ -94,6 +97,9 @@ def results_text(spec_path: str, machine: str, results: Sequence[Result], inputs
         f"{terminal(spec_path)} ({machine})",
         table(["property", "kind", "verdict", "expected", "", "cite"], rows, "  "),
     ]
+    if assumptions:
+        parts.append("  every verdict assumes of the environment, at every step:")
+        parts += [f"    {_clip(a, 110)}" for a in assumptions]
     for r in results:
         if r.counterexample is not None and r.counterexample.steps:
             parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
@@ -162,6 +168,23 @@ def regression_text(changes: Sequence[VerdictChange], transitions: Sequence[Tran
     else:
         parts += ["transitions: none added, removed or changed", ""]
     return "\n".join(parts)
+
+
+def meaning_text(changes: Sequence[PropertyChange]) -> str:
+    """Declared properties whose text changed, and how their meaning did (by z3)."""
+    if not changes:
+        return "properties: none reworded\n"
+    labels = {
+        "weakened": "WEAKENED (REGRESSION)",
+        "incomparable": "CHANGED, neither implies the other (REGRESSION)",
+        "strengthened": "strengthened",
+        "equivalent": "equivalent (reworded)",
+        "unknown": "changed (z3 could not decide how)",
+    }
+    rows = [[c.prop, _clip(c.old, 50), _clip(c.new, 50), labels[c.relation]] for c in changes]
+    return "\n".join(
+        ["properties reworded (compared by meaning):", table(["property", "old", "new", ""], rows, "  "), ""]
+    )
 
 
 def diff_text(left: str, right: str, comparison: EquivalenceResult, inputs: Sequence[str]) -> str:

@@ -1,6 +1,10 @@
 """Collect the safety-case evidence for one machine: proofs, conformance of the generated code, tool versions,
 hashes, traceability, readings of the source side by side, and a GSN-style argument over all of it.
 
+A machine with data (params, signals, variables) has no generated code yet: its evidence is the spec's own (the
+proofs with their engines and certificates, the params, signals, variables, definitions and outputs, and the
+environment assumptions the proofs rely on), and the argument claims nothing about code.
+
 Everything collected is deterministic for the same inputs (no durations, sorted goal lists, fixed seeds); the
 one timestamp is `generated_at`, which SOURCE_DATE_EPOCH fixes too.
 """
@@ -10,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import sys
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
@@ -25,12 +30,14 @@ from mlca_verify.errors import ToolError
 from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Outcome, Result
-from mlca_verify.model import Machine, show
+from mlca_verify.model import Machine, Range, Type, show, show_number
 from mlca_verify.report import cube_text
 from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.spec.types import show_unit
 from mlca_verify.targets import FILES, Layout
 from mlca_verify.tools import run
 
+NO_DATA_CODE = "code generation for machines with data (params, signals, variables) is not available yet"
 TOOL_VERSIONS = {
     "gcc": ["gcc", "--version"],
     "frama-c": ["frama-c", "-version"],
@@ -91,7 +98,8 @@ class Evidence:
     @property
     def ok(self) -> bool:
         loop_ok = self.loop.get("status") != "failed"
-        return all(r.ok for r in self.results) and all(o.ok for o in self.outcomes) and loop_ok
+        results_ok = all(r.ok for r in self.results) and all(o.ok for o in self.outcomes)
+        return results_ok and loop_ok and (not self.spec.machine.has_data or parametric_ok(self))
 
 
 def collect(
@@ -100,9 +108,19 @@ def collect(
     """Prove, check conformance and assemble the evidence for `spec`, with its closed-loop `runs` (None: no
     results database given) read beforehand."""
     loaded_readings = [load_spec(p, compare=False) for p in readings]
-    loop = closed_loop(runs, spec.machine.name.lower())  # every input read before the long work starts
-    results = check_all(spec.machine)
-    outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
+    if spec.machine.has_data:  # no generated code: nothing to check for conformance, no controller to run
+        if runs is not None:
+            raise ValueError(f"closed-loop runs drive generated code; {NO_DATA_CODE}")
+        loop = {
+            "status": "undeveloped",
+            "detail": f"no closed-loop runs: they drive generated code, and {NO_DATA_CODE}",
+        }
+        results = check_all(spec.machine)
+        outcomes: list[CheckOutcome] = []
+    else:
+        loop = closed_loop(runs, spec.machine.name.lower())  # every input read before the long work starts
+        results = check_all(spec.machine)
+        outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
     ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at)
     ev.loop = loop
     ev.data = document(ev)
@@ -113,7 +131,7 @@ def collect(
 
 
 def document(ev: Evidence) -> dict[str, Any]:
-    return {
+    doc = {
         "schema": "mlca-verify.evidence/1",
         "generated_at": ev.generated_at,
         "spec": {
@@ -133,11 +151,15 @@ def document(ev: Evidence) -> dict[str, Any]:
         "readings": readings(ev),
         "argument": argument(ev),
     }
+    if ev.spec.machine.has_data:  # only then: the bundle of a machine without data stays as it was
+        doc["data_machine"] = data_machine(ev)
+        doc["generated_code"] = {"available": False, "detail": NO_DATA_CODE}
+    return doc
 
 
 def proof(r: Result) -> dict[str, Any]:
     cx = r.counterexample.to_json() if r.counterexample else None
-    return {
+    found = {
         "property": r.prop,
         "kind": r.kind,
         "verdict": r.verdict,
@@ -147,6 +169,9 @@ def proof(r: Result) -> dict[str, Any]:
         "detail": r.detail,
         "counterexample": cx,
     }
+    if r.proof is not None:  # a machine with data: how it was decided
+        found["proof"] = r.proof.to_json()
+    return found
 
 
 def _files(paths: list[Path]) -> list[dict[str, str]]:
@@ -156,6 +181,8 @@ def _files(paths: list[Path]) -> list[dict[str, str]]:
 def inputs(ev: Evidence) -> list[dict[str, str]]:
     specs = [Path(ev.spec.path), *(Path(r.path) for r in ev.readings)]
     specs += [Path(c.other.loc.file) for c in ev.spec.machine.comparisons]
+    if ev.spec.machine.has_data:  # no code is generated, so the code templates are no input
+        return _files([p for p in specs if p.is_file()])
     templates = [TEMPLATE_DIR / name for name in TEMPLATES.values()]
     return _files([p for p in specs if p.is_file()]) + [
         {"path": f"templates/{p.name}", "sha256": sha256(p)} for p in sorted(templates)
@@ -168,6 +195,8 @@ def generated_files(ev: Evidence) -> dict[str, Path]:
 
 
 def artifacts(ev: Evidence) -> list[dict[str, str]]:
+    if ev.spec.machine.has_data:
+        return []
     return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generated_files(ev).items()]
 
 
@@ -192,6 +221,117 @@ def closed_loop(runs: ClosedLoopRuns | None, module: str) -> dict[str, Any]:
     }
 
 
+# --- a machine with data: its params, signals, variables, definitions, outputs and assumptions ---------------
+
+
+def _number(value: Fraction, kind: Type) -> str:
+    """A value exactly, as a spec would write it: a real always with its point, in decimals when it has a
+    finite decimal expansion (0.1, not the float nearest it), else as a fraction."""
+    if kind != "real" or value.denominator == 1:
+        return show_number(value, kind == "real")
+    digits = 0
+    while (value * 10**digits).denominator != 1 and digits < 40:
+        digits += 1
+    scaled = value * 10**digits
+    if scaled.denominator != 1:
+        return show_number(value, True)
+    sign, whole = ("-" if scaled < 0 else ""), str(abs(scaled.numerator)).rjust(digits + 1, "0")
+    return f"{sign}{whole[:-digits]}.{whole[-digits:]}"
+
+
+def _range(bounds: Range | None, kind: Type) -> list[str] | None:
+    return None if bounds is None else [_number(bounds[0], kind), _number(bounds[1], kind)]
+
+
+def data_machine(ev: Evidence) -> dict[str, Any]:
+    """The data of a machine with data, in the spec's own syntax (numbers as exact text), and for each
+    environment assumption the proofs that rely on it."""
+    m = ev.spec.machine
+    relied: dict[str, list[str]] = {a.id: [] for a in m.assumptions}
+    for r in ev.results:
+        for aid in r.proof.assumptions if r.proof else ():
+            relied.setdefault(aid, []).append(r.prop)
+    return {
+        "step_s": None if m.step_s is None else _number(m.step_s, "real"),
+        "params": [
+            {
+                "name": p.name,
+                "type": p.type,
+                "default": _number(p.default, p.type),
+                "range": _range(p.range, p.type),
+                "unit": show_unit(p.unit),
+                "doc": p.doc,
+                "cite": p.cite,
+            }
+            for p in m.params
+        ],
+        "signals": [
+            {
+                "name": s.name,
+                "type": s.type,
+                "unit": show_unit(s.unit),
+                "range": _range(s.range, s.type),
+                "doc": s.doc,
+                "cite": s.cite,
+            }
+            for s in m.signals
+        ],
+        "variables": [
+            {
+                "name": v.name,
+                "type": v.type,
+                "initial": _number(v.initial, v.type),
+                "range": _range(v.range, v.type),
+                "unit": show_unit(v.unit),
+                "every": None if v.every is None else show(v.every),
+                "doc": v.doc,
+                "cite": v.cite,
+            }
+            for v in m.variables
+        ],
+        "definitions": [
+            {
+                "name": d.name,
+                "type": d.type,
+                "expr": show(d.expr),
+                "unit": show_unit(d.unit),
+                "if_invalid": d.if_invalid if d.signals and d.type == "bool" else None,
+                "signals": list(d.signals),
+                "doc": d.doc,
+                "cite": d.cite,
+            }
+            for d in m.definitions
+        ],
+        "outputs": [
+            {
+                "name": o.name,
+                "type": o.type,
+                "expr": show(o.expr),
+                "unit": show_unit(o.unit),
+                "doc": o.doc,
+                "cite": o.cite,
+            }
+            for o in m.outputs
+        ],
+        "assumptions": [
+            {"id": a.id, "expr": show(a.expr), "doc": a.doc, "cite": a.cite, "relied_on_by": relied[a.id]}
+            for a in m.assumptions
+        ],
+    }
+
+
+def declared(ev: Evidence) -> list[Result]:
+    """The results of the spec's declared invariants and liveness properties expected to hold, in file order."""
+    m = ev.spec.machine
+    ids = {p.id for p in m.invariants if p.expect == "holds"} | {p.id for p in m.liveness if p.expect == "holds"}
+    return [r for r in ev.results if r.prop in ids and r.kind in ("invariant", "liveness")]
+
+
+def parametric_ok(ev: Evidence) -> bool:
+    """Every declared property of a machine with data expected to hold holds for every param value in range."""
+    return all(r.ok and r.proof is not None and r.proof.parametric for r in declared(ev))
+
+
 # --- traceability -----------------------------------------------------------------------------------------
 
 
@@ -202,25 +342,30 @@ def _lines(path: Path, needle: str) -> list[int]:
 def traceability(ev: Evidence) -> list[dict[str, Any]]:
     m = ev.spec.machine
     verdicts = {r.prop: r for r in ev.results}
-    files = generated_files(ev)
+    files = {} if m.has_data else generated_files(ev)  # a machine with data has no generated code to point into
     rows = []
     elements: list[tuple[str, str, str, str, str]] = []  # element, text, cite, property, code needle
     for t in m.transitions:
         source = "*" if t.sources is None else ", ".join(t.sources)
         text = f"{source} -> {t.target} when {show(t.guard)}"
+        if t.updates:
+            text += "; do " + ", ".join(f"{u.variable} = {show(u.expr)}" for u in t.updates)
         elements.append((f"transition {t.id}", text, t.cite, f"fires:{t.id}", f"{t.id}: "))
     elements += [(f"invariant {i.id}", show(i.expr), i.cite, i.id, f"{i.id}: ") for i in m.invariants]
     for p in m.liveness:
         text = f"assume {show(p.assume)}; goal {show(p.goal)}" + (f" within {p.within}" if p.within else "")
+        if p.bound is not None:
+            text += f" within {show(p.bound)}"
         elements.append((f"liveness {p.id}", text, p.cite, p.id, ""))
     for element, text, cite, prop, needle in elements:
         r = verdicts[prop]
         code = []
-        if needle:
+        code_tested = bool(needle) and not m.has_data  # a machine with data has no generated code to test
+        if code_tested:
             for kind in ("c-source", "python"):
                 code += [{"file": files[kind].as_posix(), "line": n} for n in _lines(files[kind], needle)]
-        tests = ["conform: exhaustive", "conform: sequences", "conform: frama-c-wp"] if needle else []
-        if r.verdict == "violated" and prop == r.prop and r.kind in ("invariant", "liveness"):
+        tests = ["conform: exhaustive", "conform: sequences", "conform: frama-c-wp"] if code_tested else []
+        if r.verdict == "violated" and prop == r.prop and r.kind in ("invariant", "liveness") and not m.has_data:
             tests.append("check --emit-tests: replays the counterexample")
         rows.append(
             {
@@ -281,8 +426,11 @@ def _outcome(o: Outcome) -> str:
 
 
 def argument(ev: Evidence) -> list[dict[str, Any]]:
-    """GSN nodes: goals, strategies, solutions (each linking to its artifact), contexts, undeveloped goals."""
+    """GSN nodes: goals, strategies, solutions (each linking to its artifact), contexts, undeveloped goals (and
+    for a machine with data, assumptions: see `data_argument`)."""
     m: Machine = ev.spec.machine
+    if m.has_data:
+        return data_argument(ev)
     by_name = {o.name: o for o in ev.outcomes}
     nodes: list[dict[str, Any]] = []
 
@@ -356,4 +504,89 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
             "G6", "goal", "Closed-loop runs in traffic show no runtime-monitor violation", "S1", loop["status"] == "ok"
         )
         node("Sn6.1", "solution", loop["detail"], "G6", loop["status"] == "ok", link="#closed-loop")
+    return nodes
+
+
+def _how(r: Result) -> str:
+    """How a property of a machine with data was decided, in a few words."""
+    if r.proof is None:
+        return r.detail.splitlines()[0] if r.detail else "decided on the machine's transitions"
+    pr = r.proof
+    text = pr.engine + (f", k = {pr.k}" if pr.k is not None else "")
+    if pr.certificate is not None:
+        text += ", certificate " + ("confirmed by a separate query" if pr.certificate_checked else "NOT confirmed")
+    return text + (", for every param value in range" if pr.parametric else ", at the params' defaults")
+
+
+def data_argument(ev: Evidence) -> list[dict[str, Any]]:
+    """The argument for a machine with data: over the spec alone (no code is generated for it yet), with a goal
+    for the params' whole ranges backed by the parametric proofs, and an assumption node per [[assume]]."""
+    m: Machine = ev.spec.machine
+    nodes: list[dict[str, Any]] = []
+
+    def node(nid: str, kind: str, text: str, parent: str | None, ok: bool | None = None, *, link: str = "") -> None:
+        nodes.append({"id": nid, "type": kind, "text": text, "parent": parent, "ok": ok, "link": link or None})
+
+    node(
+        "G1",
+        "goal",
+        f"The specification of {m.name} ({ev.spec.path}) meets its specified properties, for every param value in "
+        "range, under its environment assumptions",
+        None,
+        ev.ok,
+    )
+    node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
+    node(
+        "C2",
+        "context",
+        f"No generated code, so no claim about code: {NO_DATA_CODE} (no conformance checks, no closed-loop runs)",
+        "G1",
+        link="#conformance",
+    )
+    node("S1", "strategy", "Argue over the proofs of the spec (z3), under the environment assumptions", "G1")
+    for k, a in enumerate(m.assumptions, 1):
+        text = f"{a.id}: {show(a.expr)} at every step ({a.doc})" + (f", source: {a.cite}" if a.cite else "")
+        node(f"A{k}", "assumption", text, "S1", link=f"#assume-{anchor(a.id)}")
+    node(
+        "G2",
+        "goal",
+        "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
+        "S1",
+        all(r.ok for r in ev.results),
+    )
+    for k, r in enumerate(ev.results, 1):
+        node(
+            f"Sn2.{k}",
+            "solution",
+            f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {_how(r)}",
+            "G2",
+            r.ok,
+            link=f"#proof-{anchor(r.prop)}",
+        )
+    props = declared(ev)
+    what = "every param value in its range" if m.params else "every run (the machine has no params)"
+    node(
+        "G3",
+        "goal",
+        f"The declared properties hold for {what}: parametric proofs",
+        "S1",
+        parametric_ok(ev),
+    )
+    for k, r in enumerate(props, 1):
+        if r.proof is not None and r.proof.parametric:
+            node(
+                f"Sn3.{k}",
+                "solution",
+                f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {_how(r)}",
+                "G3",
+                r.ok,
+                link=f"#proof-{anchor(r.prop)}",
+            )
+        else:
+            node(
+                f"G3.{k}",
+                "undeveloped",
+                f"{r.prop} holds for {what} (its proof is not parametric: declare it with parametric = true)",
+                "G3",
+            )
     return nodes

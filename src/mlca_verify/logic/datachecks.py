@@ -10,9 +10,9 @@ from functools import partial
 
 import z3
 
-from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso
+from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
-from mlca_verify.logic.symbolic import Frame, Monitor, StepInputs, StepTerms, System, input_only, value_of
+from mlca_verify.logic.symbolic import Frame, Monitor, StepInputs, StepTerms, System, Valuation, input_only, value_of
 from mlca_verify.model import Arith, Call, Expr, Invariant, Liveness, Machine, Num, Prev, Var, Verdict, nodes
 
 Predicate = Callable[[System, StepTerms], z3.BoolRef]
@@ -61,6 +61,7 @@ class DataChecker:
         self.parametric = parametric
         self.abstractable = input_only(machine)
         self.assumed = tuple(a.id for a in machine.assumptions)
+        self._cover: dict[str, Path] | None = None
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -175,6 +176,9 @@ class DataChecker:
             for v in m.variables
             if v.range is not None
         ]
+        for name, exprs, post in division_sites(m):
+            prop = f"div:{name}"
+            jobs.append(Job(prop, "division", m.expected(prop), m.cite, partial(self.division, name, exprs, post), p))
         for inv in m.invariants:
             q = p or inv.parametric
             jobs.append(Job(inv.id, "invariant", inv.expect, inv.cite, partial(self.invariant, inv, q), q))
@@ -218,11 +222,25 @@ class DataChecker:
             return "holds", found, f"proved by {how}{cert}{what}", None
         return "unknown", found, found.reason, None
 
-    def reach(self, state: str) -> Decision:
-        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
-            return s.in_states(post.mode, [state])
+    def cover(self) -> dict[str, Path]:
+        """Witnesses of every reachability check (reach:S, fires:t), found by one shared BMC run."""
+        if self._cover is None:
+            system, real = self.systems((), self.parametric)
+            targets: dict[str, Bad] = {f"reach:{s}": _reaches(s) for s in self.m.states}
+            targets.update({f"fires:{t.id}": _fires(t.id) for t in self.m.transitions})
+            self._cover = witnesses(system, real, targets, self.limits)
+        return self._cover
 
-        found = self.search((), bad, parametric=self.parametric, certify=False)
+    def reach(self, state: str) -> Decision:
+        path = self.cover().get(f"reach:{state}")
+        if path is not None:
+            return (
+                "holds",
+                Search("reachable", path, "bmc", len(path.inputs)),
+                f"reached in {len(path.inputs)} steps",
+                None,
+            )
+        found = self.search((), _reaches(state), parametric=self.parametric, certify=False)
         if found.answer == "reachable" and found.path is not None:
             return "holds", found, f"reached in {len(found.path.inputs)} steps", None
         if found.answer == "unreachable":
@@ -230,10 +248,15 @@ class DataChecker:
         return "unknown", found, found.reason, None
 
     def fires(self, tid: str) -> Decision:
-        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
-            return t.fired[tid]
-
-        found = self.search((), bad, parametric=self.parametric, certify=False)
+        path = self.cover().get(f"fires:{tid}")
+        if path is not None:
+            return (
+                "holds",
+                Search("reachable", path, "bmc", len(path.inputs)),
+                f"fires at step {len(path.inputs)}",
+                None,
+            )
+        found = self.search((), _fires(tid), parametric=self.parametric, certify=False)
         if found.answer == "reachable" and found.path is not None:
             return "holds", found, f"fires at step {len(found.path.inputs)}", None
         if found.answer == "unreachable":
@@ -250,6 +273,22 @@ class DataChecker:
             return z3.Or(x < value_of(low, variable.type), x > value_of(high, variable.type))
 
         return self.violation(self.search((), bad, parametric=self.parametric), f"{name} leaves [{low}, {high}]")
+
+    def division(self, name: str, exprs: tuple[Expr, ...], post: bool) -> Decision:
+        """Can a divisor in `name` be zero where its value is used? Definitions are read both before the step
+        (by guards) and after it (by properties); a boolean definition's samples must be valid to be read."""
+        divisors = [d.right for e in exprs for d in _divisions(e)]
+        definition = next((d for d in self.m.definitions if d.name == name), None)
+        signals = definition.signals if definition is not None else ()
+
+        def zero(s: System, v: Valuation) -> z3.BoolRef:
+            hit = z3.Or(*[s.ev(d, v) == 0 for d in divisors])
+            return z3.And(hit, *[s.valid(g, v) for g in signals])
+
+        def bad(s: System, pre: Frame, i: StepInputs, after: Frame, t: StepTerms) -> z3.BoolRef:
+            return z3.Or(zero(s, t.post), zero(s, t.pre)) if post else zero(s, t.pre)
+
+        return self.violation(self.search((), bad, parametric=self.parametric), f"a divisor in {name} can be zero")
 
     def violation(self, found: Search, what: str) -> Decision:
         if found.answer == "reachable" and found.path is not None:
@@ -293,8 +332,33 @@ class DataChecker:
         return "unknown", search, search.reason, None
 
 
+def _reaches(state: str) -> Bad:
+    def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+        return s.in_states(post.mode, [state])
+
+    return bad
+
+
+def _fires(tid: str) -> Bad:
+    def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+        return t.fired[tid]
+
+    return bad
+
+
 def _divisions(expr: Expr) -> list[Arith]:
     return [n for n in nodes(expr) if isinstance(n, Arith) and n.op == "/"]
+
+
+def division_sites(m: Machine) -> list[tuple[str, tuple[Expr, ...], bool]]:
+    """Each element that divides: its name, its expressions, and whether it is also read after the step."""
+    sites: list[tuple[str, tuple[Expr, ...], bool]] = []
+    sites += [(d.name, (d.expr,), True) for d in m.definitions]
+    sites += [(v.name, (v.every,), False) for v in m.variables if v.every is not None]
+    sites += [(t.id, (t.guard, *(u.expr for u in t.updates)), False) for t in m.transitions]
+    sites += [(o.name, (o.expr,), True) for o in m.outputs]
+    sites += [(i.id, (i.expr,), True) for i in m.invariants]
+    return [site for site in sites if any(_divisions(e) for e in site[1])]
 
 
 def check_data_machine(machine: Machine, limits: Limits, parametric: bool = False) -> list[Result]:

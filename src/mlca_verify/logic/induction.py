@@ -23,7 +23,7 @@ Answer = Literal["reachable", "unreachable", "unknown"]
 
 @dataclass
 class Limits:
-    induction: int = 8  # the largest k tried by k-induction before PDR
+    induction: int = 4  # the largest k tried by k-induction before PDR (PDR proves what needs more)
     depth: int = 60  # the deepest BMC run searched for a counterexample
     lasso: int = 12  # the longest lasso searched for an unbounded response
     timeout_ms: int = 10_000
@@ -59,6 +59,7 @@ class Unrolling:
     def __init__(self, system: System, initial: bool, tag: str, timeout_ms: int) -> None:
         self.system = system
         self.tag = tag
+        self.timeout_ms = timeout_ms
         self.solver = z3.Solver()
         self.solver.set("timeout", timeout_ms)
         self.frames = [system.frame(f"{tag}0")]
@@ -100,10 +101,16 @@ def deeper(base: Unrolling, real: System, bad: Bad, limits: Limits) -> Search:
     return Search("unknown", engine="bmc", reason=f"no counterexample within {limits.depth} steps")
 
 
-def concretize(abstract: Unrolling, real: System, bad: Bad, steps: int, timeout_ms: int) -> Path | None:
+Probes = dict[tuple[str, ...], list[z3.ExprRef]]
+
+
+def concretize(abstract: Unrolling, real: System, bad: Bad, steps: int, probes: Probes | None = None) -> Path | None:
     """A run of the real system along an abstract counterexample: at each step, signals for which every abstracted
-    definition takes the abstract run's value (one small query per step). None when some step has none."""
+    definition takes the abstract run's value (one small query per step, remembered in `probes` for steps that
+    ask the same). None when some step has none."""
     model = abstract.solver.model()
+    probes = {} if probes is None else probes
+    timeout_ms = abstract.timeout_ms
 
     def fixed(term: z3.ExprRef) -> z3.ExprRef:
         return model.eval(term, model_completion=True)
@@ -114,21 +121,54 @@ def concretize(abstract: Unrolling, real: System, bad: Bad, steps: int, timeout_
         seen = abstract.inputs[n]
         pins = [run.inputs[n].bools[k] == fixed(v) for k, v in seen.bools.items()]
         if seen.abstract:
-            probe = z3.Solver()
-            probe.set("timeout", timeout_ms)
-            pre = run.frames[n]
-            frame_pins = [a == fixed(b) for a, b in zip(pre.terms(), abstract.frames[n].terms(), strict=True)]
-            before = real.valuation(pre, run.inputs[n])
-            wanted = [real.ev(Var(name), before) == fixed(v) for name, v in seen.abstract.items()]
-            probe.add(*frame_pins, *pins, *wanted, real.assumptions(pre, run.inputs[n]))
-            if probe.check() != z3.sat:
+            frame = list(zip(run.frames[n].terms(), abstract.frames[n].terms(), strict=True))
+            if not real.assumptions_read_frame:
+                frame = list(zip(run.frames[n].params.values(), abstract.frames[n].params.values(), strict=True))
+            asked = [*seen.bools.values(), *seen.abstract.values(), *(b for _, b in frame)]
+            key = tuple(str(fixed(t)) for t in asked)
+            if key not in probes:
+                before = run.terms[n].pre
+                wanted = [real.ev(Var(name), before) == fixed(v) for name, v in seen.abstract.items()]
+                probe = z3.Solver()
+                probe.set("timeout", timeout_ms)
+                probe.add(*[a == fixed(b) for a, b in frame], *pins, *wanted)
+                probe.add(real.assumptions(run.frames[n], run.inputs[n]))
+                found = probe.model() if probe.check() == z3.sat else None
+                signals = run.inputs[n].signals.values()
+                probes[key] = [] if found is None else [found.eval(v, model_completion=True) for v in signals]
+            if not probes[key] and run.inputs[n].signals:
                 return None
-            found = probe.model()
-            pins += [v == found.eval(v, model_completion=True) for v in run.inputs[n].signals.values()]
+            pins += [v == value for v, value in zip(run.inputs[n].signals.values(), probes[key], strict=False)]
         run.solver.add(*pins)
     if run.check(run.bad(bad, steps - 1)) != z3.sat:
         return None
     return run.path(steps)
+
+
+def witnesses(system: System, real: System, targets: dict[str, Bad], limits: Limits) -> dict[str, Path]:
+    """One BMC run for many targets (the built-in reachability checks): for each, the shortest real run whose last
+    step satisfies it, up to `limits.depth` steps; targets not met are left out."""
+    run = Unrolling(system, True, "w", limits.timeout_ms)
+    found: dict[str, Path] = {}
+    dropped: set[str] = set()  # met only by abstract runs that no real run follows: left to a search of its own
+    probes: Probes = {}
+    for k in range(limits.depth):
+        left = {name: bad for name, bad in targets.items() if name not in found and name not in dropped}
+        if not left:
+            break
+        run.extend()
+        bad_here = {name: run.bad(bad, k) for name, bad in left.items()}
+        if run.check(z3.Or(*bad_here.values())) == z3.unsat:
+            continue  # no target at this depth: one query instead of one per target
+        for name, bad in left.items():
+            if run.check(bad_here[name]) != z3.sat:
+                continue
+            path = run.path(k + 1) if system is real else concretize(run, real, bad, k + 1, probes)
+            if path is None:
+                dropped.add(name)
+            else:
+                found[name] = path
+    return found
 
 
 def k_induction(system: System, bad: Bad, real: System, limits: Limits) -> tuple[Search, Unrolling]:
@@ -158,22 +198,13 @@ def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits) -
     if answer == z3.sat:
         if base.system is real:
             return Search("reachable", base.path(k + 1), "bmc", k + 1)
-        path = concretize(base, real, bad, k + 1, limits.timeout_ms)
-        if path is None:
-            path = bmc_at(real, bad, k + 1, limits.timeout_ms)
+        path = concretize(base, real, bad, k + 1)
         if path is not None:
             return Search("reachable", path, "bmc", k + 1)
-        return None
+        why = f"the abstraction has a bad run of {k + 1} steps that no real run follows"
+        return Search("unknown", engine="abstraction", reason=why)
     base.solver.add(z3.Not(base.bad(bad, k)))
     return None
-
-
-def bmc_at(real: System, bad: Bad, steps: int, timeout_ms: int) -> Path | None:
-    """A real run of exactly `steps` steps whose last step is bad (the earlier steps are known not to be)."""
-    run = Unrolling(real, True, "x", timeout_ms)
-    for _ in range(steps):
-        run.extend()
-    return run.path(steps) if run.check(run.bad(bad, steps - 1)) == z3.sat else None
 
 
 def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
@@ -259,10 +290,14 @@ def decide(system: System, real: System, bad: Bad, limits: Limits, certify: bool
     otherwise PDR (for a proof, or for the certificate of a k-induction proof), then deeper BMC."""
     start = time.perf_counter()
     found, base = k_induction(system, bad, real, limits)
+    if found.engine == "abstraction":
+        return refined(real, bad, limits, certify, found)
     if found.answer == "reachable" or (found.answer == "unknown" and found.engine == "bmc"):
         return found
     if found.answer == "unknown" and not certify:
         witness = deeper(base, real, bad, limits)
+        if witness.engine == "abstraction":
+            return refined(real, bad, limits, certify, witness)
         if witness.answer == "reachable":
             return witness
     remaining = max(1000, limits.timeout_ms - int(1000 * (time.perf_counter() - start)))
@@ -280,7 +315,16 @@ def decide(system: System, real: System, bad: Bad, limits: Limits, certify: bool
         return proof
     if certify:
         witness = deeper(base, real, bad, limits)
+        if witness.engine == "abstraction":
+            return refined(real, bad, limits, certify, witness)
         if witness.answer == "reachable":
             return witness
     reason = f"induction not closed at k = {found.k}; {proof.reason}; no counterexample within {len(base.inputs)} steps"
     return Search("unknown", engine="k-induction+pdr", k=found.k, reason=reason)
+
+
+def refined(real: System, bad: Bad, limits: Limits, certify: bool, spurious: Search) -> Search:
+    """Decide again on the real system, after an abstract counterexample that no real run follows."""
+    found = decide(real, real, bad, limits, certify)
+    found.notes.append(f"on the real system: {spurious.reason}")
+    return found

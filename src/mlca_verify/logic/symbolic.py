@@ -13,11 +13,12 @@ holds; a counterexample found on it is only a candidate, replayed on the real sy
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from fractions import Fraction
 
 import z3
+from z3.z3 import _to_expr_ref
 
 from mlca_verify.model import (
     Arith,
@@ -144,6 +145,13 @@ class System:
         self.outputs = {o.name: o for o in machine.outputs}
         self.shared_params = {p.name: z3.Const(f"param!{p.name}", sort_of(p.type)) for p in machine.params}
         self.prev_types = [self.type_of(p.arg) for p in self.prevs]
+        self._template: tuple[Frame, StepInputs, Frame, z3.BoolRef, StepTerms] | None = None
+        variables = {v.name for v in machine.variables}
+        self.assumptions_read_frame = any(
+            isinstance(n, StateIn) or (isinstance(n, Var) and n.name in variables)
+            for a in machine.assumptions
+            for n in nodes(a.expr)
+        )
 
     # --- constants -----------------------------------------------------------------------------------
 
@@ -203,7 +211,34 @@ class System:
         return Valuation(f.mode, f.variables, i, self.param_values(f), previous or {})
 
     def step(self, pre: Frame, i: StepInputs, post: Frame) -> tuple[z3.BoolRef, StepTerms]:
-        """The constraint linking `pre` to `post` under inputs `i`, with the step's terms."""
+        """The constraint linking `pre` to `post` under inputs `i`, with the step's terms: built once over
+        placeholder constants, then instantiated by substitution (z3 does that far faster than rebuilding)."""
+        if self._template is None:
+            slots = (self.frame("T!0"), self.inputs("T!0"), self.frame("T!1"))
+            self._template = (*slots, *self.build_step(*slots))
+        t_pre, t_in, t_post, link, terms = self._template
+        pairs: dict[int, tuple[z3.ExprRef, z3.ExprRef]] = {}
+        for old, new in zip(
+            [*t_pre.terms(), *t_in.terms(), *t_post.terms()], [*pre.terms(), *i.terms(), *post.terms()], strict=True
+        ):
+            pairs.setdefault(old.get_id(), (old, new))
+        sub = substitution(list(pairs.values()))
+
+        def moved(v: Valuation, frame: Frame) -> Valuation:
+            previous = {k: sub(x) for k, x in v.previous.items()}
+            cache = {k: sub(x) for k, x in v.cache.items()}
+            return Valuation(frame.mode, frame.variables, i, self.param_values(frame), previous, cache)
+
+        return sub(link), StepTerms(
+            {k: sub(x) for k, x in terms.fired.items()},
+            sub(terms.enabled_any),
+            sub(terms.next_mode),
+            {k: sub(x) for k, x in terms.next_variables.items()},
+            moved(terms.pre, pre),
+            moved(terms.post, post),
+        )
+
+    def build_step(self, pre: Frame, i: StepInputs, post: Frame) -> tuple[z3.BoolRef, StepTerms]:
         before = self.valuation(pre, i)
         fired, enabled_any = self.fire(before)
         next_mode: z3.ArithRef = z3.IntVal(0) + pre.mode
@@ -374,6 +409,22 @@ class System:
         if d.type == "bool" and d.signals:
             return z3.If(z3.And(*[self.valid(s, v) for s in d.signals]), value, z3.BoolVal(d.if_invalid))
         return value
+
+
+def substitution(pairs: list[tuple[z3.ExprRef, z3.ExprRef]]) -> Callable[[z3.ExprRef], z3.ExprRef]:
+    """A function replacing each `old` by its `new` in a term; the pair arrays are built once for every call
+    (z3.substitute rebuilds them each time, which dominates when a step has many terms)."""
+    count = len(pairs)
+    sources = (z3.Ast * count)()
+    targets = (z3.Ast * count)()
+    for k, (old, new) in enumerate(pairs):
+        sources[k], targets[k] = old.as_ast(), new.as_ast()
+
+    def apply(term: z3.ExprRef) -> z3.ExprRef:
+        ctx = term.ctx
+        return _to_expr_ref(z3.z3core.Z3_substitute(ctx.ref(), term.as_ast(), count, sources, targets), ctx)
+
+    return apply
 
 
 def _operands(expr: Expr) -> list[Expr]:
