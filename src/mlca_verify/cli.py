@@ -200,11 +200,14 @@ def cmd_diff(args: argparse.Namespace) -> int:
     else:
         _say_equivalence(old, new, args.timeout_ms)
     regressions = [c.prop for c in changes if c.regression]
-    regressions += [c.prop for c in meaning if c.regression and c.prop not in regressions]
+    weakened = [c.prop for c in meaning if c.regression and c.prop not in regressions]
     if regressions:
         noun = "regression" if len(regressions) == 1 else "regressions"
-        listed = ", ".join(regressions)
-        say(f"\n{len(regressions)} {noun}: {listed} (a property that held no longer does, or says less)")
+        say(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
+    if weakened:
+        lead = "" if regressions else "\n"
+        say(f"{lead}{len(weakened)} weakened: {', '.join(weakened)} now guarantee less than before (a regression)")
+    if regressions or weakened:
         return EXIT_FINDING
     say(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
     return EXIT_OK

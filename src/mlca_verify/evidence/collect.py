@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -425,6 +426,22 @@ def _outcome(o: Outcome) -> str:
 # --- the argument -----------------------------------------------------------------------------------------
 
 
+def proofs_goal(node: Callable[..., None], results: list[Result], with_how: bool) -> None:
+    """G2: every check of the spec has its expected verdict, a solution per proof (with how it was decided, for
+    a machine with data)."""
+    node(
+        "G2",
+        "goal",
+        "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
+        "S1",
+        all(r.ok for r in results),
+    )
+    for k, r in enumerate(results, 1):
+        how = f"; {_how(r)}" if with_how else ""
+        text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}{how}"
+        node(f"Sn2.{k}", "solution", text, "G2", r.ok, link=f"#proof-{anchor(r.prop)}")
+
+
 def argument(ev: Evidence) -> list[dict[str, Any]]:
     """GSN nodes: goals, strategies, solutions (each linking to its artifact), contexts, undeveloped goals (and
     for a machine with data, assumptions: see `data_argument`)."""
@@ -446,22 +463,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     )
     node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
     node("S1", "strategy", "Argue over the specification, the generated code, and closed-loop behaviour", "G1")
-    node(
-        "G2",
-        "goal",
-        "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
-        "S1",
-        all(r.ok for r in ev.results),
-    )
-    for k, r in enumerate(ev.results, 1):
-        node(
-            f"Sn2.{k}",
-            "solution",
-            f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}",
-            "G2",
-            r.ok,
-            link=f"#proof-{anchor(r.prop)}",
-        )
+    proofs_goal(node, ev.results, with_how=False)
     node(
         "G3", "goal", "The generated code is the code of this spec and these templates", "S1", by_name["up-to-date"].ok
     )
@@ -547,22 +549,7 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
     for k, a in enumerate(m.assumptions, 1):
         text = f"{a.id}: {show(a.expr)} at every step ({a.doc})" + (f", source: {a.cite}" if a.cite else "")
         node(f"A{k}", "assumption", text, "S1", link=f"#assume-{anchor(a.id)}")
-    node(
-        "G2",
-        "goal",
-        "Every built-in check and declared property of the spec has its expected verdict (z3 proofs)",
-        "S1",
-        all(r.ok for r in ev.results),
-    )
-    for k, r in enumerate(ev.results, 1):
-        node(
-            f"Sn2.{k}",
-            "solution",
-            f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {_how(r)}",
-            "G2",
-            r.ok,
-            link=f"#proof-{anchor(r.prop)}",
-        )
+    proofs_goal(node, ev.results, with_how=True)
     props = declared(ev)
     what = "every param value in its range" if m.params else "every run (the machine has no params)"
     node(

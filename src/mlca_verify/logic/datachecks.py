@@ -232,35 +232,23 @@ class DataChecker:
         return self._cover
 
     def reach(self, state: str) -> Decision:
-        path = self.cover().get(f"reach:{state}")
-        if path is not None:
-            return (
-                "holds",
-                Search("reachable", path, "bmc", len(path.inputs)),
-                f"reached in {len(path.inputs)} steps",
-                None,
-            )
-        found = self.search((), _reaches(state), parametric=self.parametric, certify=False)
-        if found.answer == "reachable" and found.path is not None:
-            return "holds", found, f"reached in {len(found.path.inputs)} steps", None
-        if found.answer == "unreachable":
-            return "violated", found, f"no run from {self.m.initial} reaches {state} (proved by {found.engine})", None
-        return "unknown", found, found.reason, None
+        never = f"no run from {self.m.initial} reaches {state}"
+        return self.witnessed(f"reach:{state}", _reaches(state), "reached in {} steps", never)
 
     def fires(self, tid: str) -> Decision:
-        path = self.cover().get(f"fires:{tid}")
-        if path is not None:
-            return (
-                "holds",
-                Search("reachable", path, "bmc", len(path.inputs)),
-                f"fires at step {len(path.inputs)}",
-                None,
-            )
-        found = self.search((), _fires(tid), parametric=self.parametric, certify=False)
+        return self.witnessed(f"fires:{tid}", _fires(tid), "fires at step {}", "never fires")
+
+    def witnessed(self, prop: str, bad: Bad, seen: str, never: str) -> Decision:
+        """A reachability check: holds with the shortest run that meets `bad` (from the shared witness run, else
+        a search of its own), violated when that search proves no run does."""
+        path = self.cover().get(prop)
+        found = Search("reachable", path, "bmc", len(path.inputs)) if path is not None else None
+        if found is None:
+            found = self.search((), bad, parametric=self.parametric, certify=False)
         if found.answer == "reachable" and found.path is not None:
-            return "holds", found, f"fires at step {len(found.path.inputs)}", None
+            return "holds", found, seen.format(len(found.path.inputs)), None
         if found.answer == "unreachable":
-            return "violated", found, f"never fires (proved by {found.engine})", None
+            return "violated", found, f"{never} (proved by {found.engine})", None
         return "unknown", found, found.reason, None
 
     def in_range(self, name: str) -> Decision:

@@ -420,7 +420,9 @@ class MeaningChecker:
         for key, value in self.doc.get("expect", {}).items():
             path: KeyPath = ("expect", key)
             if key not in known:
-                hint = "determinism, completeness, reach:<state>, fires:<transition id>, range:<variable>, div:<name>"
+                hint = "determinism, completeness, reach:<state>, fires:<transition id>"
+                if self.data:
+                    hint += ", range:<variable>, div:<name>"
                 raise self.fail(path, f"unknown built-in check {_quoted(key)} in [expect] (one of {hint})")
             table[key] = cast(Verdict, self.choice(path, value, VERDICTS))
         return table
