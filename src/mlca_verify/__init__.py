@@ -16,14 +16,48 @@ Errors are `MlcaError`s (`SpecError` carries the file, line and column).
 
 __version__ = "0.1.0"
 
-from mlca_verify.codegen import drift, generate, write
-from mlca_verify.conform import CHECKS, Conformance, conform
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from mlca_verify.errors import CodegenError, MlcaError, SpecError, ToolError, UsageError
-from mlca_verify.logic import check_all, compare
-from mlca_verify.logic.results import Result
-from mlca_verify.model import Machine
-from mlca_verify.spec import LoadedSpec, load_spec, load_text
-from mlca_verify.targets import Layout, build_c, load_python
+
+if TYPE_CHECKING:
+    from mlca_verify.codegen import drift, generate, write
+    from mlca_verify.conform import CHECKS, Conformance, conform
+    from mlca_verify.logic import check_all, compare
+    from mlca_verify.logic.results import Result
+    from mlca_verify.model import Machine
+    from mlca_verify.spec import LoadedSpec, load_spec, load_text
+    from mlca_verify.targets import Layout, build_c, load_python
+
+# Imported on first use, so that a command loads only what it runs (the code generator and the conformance
+# checks pull in Jinja and Hypothesis, which `check` never needs).
+_HOMES = {
+    "drift": "mlca_verify.codegen",
+    "generate": "mlca_verify.codegen",
+    "write": "mlca_verify.codegen",
+    "CHECKS": "mlca_verify.conform",
+    "Conformance": "mlca_verify.conform",
+    "conform": "mlca_verify.conform",
+    "check_all": "mlca_verify.logic",
+    "compare": "mlca_verify.logic",
+    "Result": "mlca_verify.logic.results",
+    "Machine": "mlca_verify.model",
+    "LoadedSpec": "mlca_verify.spec",
+    "load_spec": "mlca_verify.spec",
+    "load_text": "mlca_verify.spec",
+    "Layout": "mlca_verify.targets",
+    "build_c": "mlca_verify.targets",
+    "load_python": "mlca_verify.targets",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module 'mlca_verify' has no attribute {name!r}")
+    return getattr(importlib.import_module(home), name)
+
 
 __all__ = [
     "CHECKS",

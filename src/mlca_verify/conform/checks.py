@@ -17,9 +17,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hypothesis import HealthCheck, given, seed, settings
-from hypothesis import strategies as st
-
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.reference import Reference
@@ -135,6 +132,9 @@ def exhaustive(t: Target) -> CheckOutcome:
 def sequences(t: Target) -> CheckOutcome:
     if t.py is None or t.c is None:
         return CheckOutcome("sequences", False, "not run: the code did not compile")
+    from hypothesis import HealthCheck, given, seed, settings  # only here: keeps every other command's start fast
+    from hypothesis import strategies as st
+
     py, c = t.py, t.c
     names = t.spec.machine.input_names
     proved = {i.id for i in t.ir.invariants if i.proved}

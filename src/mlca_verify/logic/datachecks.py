@@ -62,6 +62,7 @@ class DataChecker:
         self.abstractable = input_only(machine)
         self.assumed = tuple(a.id for a in machine.assumptions)
         self._cover: dict[str, Path] | None = None
+        self._systems: dict[tuple[object, ...], System] = {}
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -72,10 +73,25 @@ class DataChecker:
         m = self.m
         if total and m.otherwise == "undefined":
             m = replace(m, otherwise="stay")
-        prevs = _prevs(*exprs, *(e for c in monitors for e in (c.assume, c.goal)))
-        abstract = () if _reads_validity(*exprs) else self.abstractable
-        real = System(m, prevs, monitors, (), parametric)
-        return System(m, prevs, monitors, abstract, parametric), real
+        prevs = tuple(dict.fromkeys(_prevs(*exprs, *(e for c in monitors for e in (c.assume, c.goal)))))
+        abstract = frozenset() if _reads_validity(*exprs) else self.abstractable
+        return self.system(m, prevs, monitors, abstract, parametric), self.system(
+            m, prevs, monitors, frozenset(), parametric
+        )
+
+    def system(
+        self,
+        m: Machine,
+        prevs: tuple[Prev, ...],
+        monitors: tuple[Monitor, ...],
+        abstract: frozenset[str],
+        parametric: bool,
+    ) -> System:
+        """One system per distinct query shape: checks that need the same frame share its step template."""
+        key = (m.otherwise, prevs, monitors, abstract, parametric)
+        if key not in self._systems:
+            self._systems[key] = System(m, prevs, monitors, abstract, parametric)
+        return self._systems[key]
 
     def result(self, job: Job) -> Result:
         start = time.perf_counter()

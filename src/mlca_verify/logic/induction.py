@@ -104,20 +104,31 @@ def deeper(base: Unrolling, real: System, bad: Bad, limits: Limits) -> Search:
 Probes = dict[tuple[str, ...], list[z3.ExprRef]]
 
 
-def concretize(abstract: Unrolling, real: System, bad: Bad, steps: int, probes: Probes | None = None) -> Path | None:
+def concretize(
+    abstract: Unrolling, real: System | Unrolling, bad: Bad, steps: int, probes: Probes | None = None
+) -> Path | None:
     """A run of the real system along an abstract counterexample: at each step, signals for which every abstracted
     definition takes the abstract run's value (one small query per step, remembered in `probes` for steps that
-    ask the same). None when some step has none."""
+    ask the same). None when some step has none. `real` may be an unrolling of the real system to reuse: the
+    run is pinned inside a push and pop."""
+    run = real if isinstance(real, Unrolling) else Unrolling(real, True, "r", abstract.timeout_ms)
+    while len(run.inputs) < steps:
+        run.extend()
+    run.solver.push()
+    try:
+        return _follow(abstract, run, bad, steps, {} if probes is None else probes)
+    finally:
+        run.solver.pop()
+
+
+def _follow(abstract: Unrolling, run: Unrolling, bad: Bad, steps: int, probes: Probes) -> Path | None:
     model = abstract.solver.model()
-    probes = {} if probes is None else probes
-    timeout_ms = abstract.timeout_ms
+    real = run.system
 
     def fixed(term: z3.ExprRef) -> z3.ExprRef:
         return model.eval(term, model_completion=True)
 
-    run = Unrolling(real, True, "r", timeout_ms)
     for n in range(steps):
-        run.extend()
         seen = abstract.inputs[n]
         pins = [run.inputs[n].bools[k] == fixed(v) for k, v in seen.bools.items()]
         if seen.abstract:
@@ -130,7 +141,7 @@ def concretize(abstract: Unrolling, real: System, bad: Bad, steps: int, probes: 
                 before = run.terms[n].pre
                 wanted = [real.ev(Var(name), before) == fixed(v) for name, v in seen.abstract.items()]
                 probe = z3.Solver()
-                probe.set("timeout", timeout_ms)
+                probe.set("timeout", run.timeout_ms)
                 probe.add(*[a == fixed(b) for a, b in frame], *pins, *wanted)
                 probe.add(real.assumptions(run.frames[n], run.inputs[n]))
                 found = probe.model() if probe.check() == z3.sat else None
@@ -152,6 +163,7 @@ def witnesses(system: System, real: System, targets: dict[str, Bad], limits: Lim
     found: dict[str, Path] = {}
     dropped: set[str] = set()  # met only by abstract runs that no real run follows: left to a search of its own
     probes: Probes = {}
+    shared = Unrolling(real, True, "r", limits.timeout_ms)  # real runs along each witness, pinned in turn
     for k in range(limits.depth):
         left = {name: bad for name, bad in targets.items() if name not in found and name not in dropped}
         if not left:
@@ -163,7 +175,7 @@ def witnesses(system: System, real: System, targets: dict[str, Bad], limits: Lim
         for name, bad in left.items():
             if run.check(bad_here[name]) != z3.sat:
                 continue
-            path = run.path(k + 1) if system is real else concretize(run, real, bad, k + 1, probes)
+            path = run.path(k + 1) if system is real else concretize(run, shared, bad, k + 1, probes)
             if path is None:
                 dropped.add(name)
             else:
@@ -302,12 +314,7 @@ def decide(system: System, real: System, bad: Bad, limits: Limits, certify: bool
             return witness
     remaining = max(1000, limits.timeout_ms - int(1000 * (time.perf_counter() - start)))
     if found.answer == "unreachable":
-        if certify:
-            proof = pdr(system, bad, remaining)
-            found.certificate, found.certificate_checked = proof.certificate, proof.certificate_checked
-            if proof.answer != "unreachable":
-                found.notes.append(f"no certificate: {proof.reason or proof.answer}")
-        return found
+        return certified(found, system, bad, remaining) if certify else found
     proof = pdr(system, bad, remaining)
     if proof.answer == "unreachable":
         proof.k = found.k
@@ -321,6 +328,22 @@ def decide(system: System, real: System, bad: Bad, limits: Limits, certify: bool
             return witness
     reason = f"induction not closed at k = {found.k}; {proof.reason}; no counterexample within {len(base.inputs)} steps"
     return Search("unknown", engine="k-induction+pdr", k=found.k, reason=reason)
+
+
+def certified(found: Search, system: System, bad: Bad, timeout_ms: int) -> Search:
+    """A k-induction proof with a certificate: `true` when it is 1-inductive (no step from any frame is bad),
+    else PDR's invariant; each checked by queries of its own."""
+    if found.k == 1:
+        found.certificate, found.certificate_checked = (
+            "true",
+            check_certificate(system, bad, z3.BoolVal(True), timeout_ms),
+        )
+        return found
+    proof = pdr(system, bad, timeout_ms)
+    found.certificate, found.certificate_checked = proof.certificate, proof.certificate_checked
+    if proof.answer != "unreachable":
+        found.notes.append(f"no certificate: {proof.reason or proof.answer}")
+    return found
 
 
 def refined(real: System, bad: Bad, limits: Limits, certify: bool, spurious: Search) -> Search:
