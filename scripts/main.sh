@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Set up, then run the main job on the shipped specs:
-#   1. prove every property of the canonical machine, the repair and the paper's other two readings;
-#   2. generate the Python and C99 code of the two deterministic machines into generated/;
+#   1. prove every property of the canonical machine, the repair, MLCA-T (the whole decision function) and the
+#      paper's other two readings;
+#   2. generate the Python and C99 code of the three deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
-#      the Cortex-M4 cross build, sanitizers);
+#      the Cortex-M4 cross build, sanitizers; MLCA-T's bit for bit against z3's semantics, without WP yet);
 #   4. run the paper's comparison closed loop in SUMO on a short version of its scenario: both generated C
 #      controllers and every comparison model, one and three AVs, two seeds each (out/sim.sqlite; runs already
 #      there are kept), and draw it beside the paper's figures (out/comparison/report.md);
@@ -15,8 +16,8 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 mkdir -p out
 .venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml spec/paper/*.toml --json out/check.json
-.venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml
-.venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml --json out/conform.json
+.venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml
+.venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml --json out/conform.json
 .venv/bin/mlca-sim sweep --matrix paper --avs 1,3 --runs 2 --jobs 2 \
     --scenario sim_check/scenarios/short.toml --db out/sim.sqlite --resume
 .venv/bin/mlca-sim report --db out/sim.sqlite --out out/comparison

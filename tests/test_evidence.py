@@ -18,9 +18,9 @@ import pytest
 from markupsafe import escape
 from playwright.sync_api import sync_playwright
 
-from mlca_verify.cli import main
+from mlca_verify.cli import NO_DATA_LOOP, main
 from mlca_verify.evidence import ClosedLoopRuns
-from mlca_verify.evidence.collect import NO_DATA_CODE, closed_loop
+from mlca_verify.evidence.collect import closed_loop
 from mlca_verify.model import show
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
@@ -237,7 +237,7 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
         assert proof["certificate"] and proof["certificate_checked"] is True
         assert all(prop in relied[a] for a in proof["assumptions"])
     assert "proof" not in proofs["determinism"]
-    # no generated code: no conformance, no artifacts, no closed loop, and the argument claims nothing of code
+    # the spec's evidence: no conformance, no artifacts, no closed loop, and the argument claims nothing of code
     assert doc["conformance"] == [] and doc["artifacts"] == [] and doc["generated_code"]["available"] is False
     assert doc["closed_loop"]["status"] == "undeveloped"
     assert all(r["code"] == [] and r["tests"] == [] for r in doc["traceability"])
@@ -254,7 +254,7 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
     assert [n["text"].split(":")[0] for n in assumptions] == [a.id for a in m.assumptions]
     assert [n["link"] for n in assumptions] == [f"#assume-{a.id}" for a in m.assumptions]
     html = (data_bundles[0] / "index.html").read_text()
-    assert "code generation for machines with data (params, signals, variables) is not available yet" in html
+    assert "checked by <code>mlca-verify conform</code>" in html or "checked by `mlca-verify conform`" in html
     assert all(f'id="assume-{a.id}"' in html for a in m.assumptions) and 'id="param-T_MIN"' in html
     assert "confirmed by a separate query" in html
     for prop in declared:  # the certificate itself, escaped as all text is
@@ -331,5 +331,5 @@ def test_a_data_machine_with_a_results_database_is_refused_before_the_proofs(
     db.write_bytes(b"")
     assert main(["evidence", MLCA_T, "--db", str(db), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert err == f"{db}: error: closed-loop runs drive generated code; {NO_DATA_CODE}\n"
+    assert err == f"{db}: error: {NO_DATA_LOOP}\n"
     assert not (tmp_path / "out" / "evidence.json").exists()

@@ -113,7 +113,8 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-NO_DATA_CODE = "code generation for machines with data (params, signals, variables) is not available yet"
+NO_DATA_TESTS = "emitted tests for machines with data (params, signals, variables) are not available yet"
+NO_DATA_LOOP = "the closed loop does not run the generated code of machines with data yet"
 
 
 def say(*parts: object, **options: Any) -> None:
@@ -175,7 +176,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
     for spec, results in checked:
         if spec.machine.has_data:
-            say(f"{spec.path}: no tests emitted: {NO_DATA_CODE}")
+            say(f"{spec.path}: no tests emitted: {NO_DATA_TESTS}")
             continue
         if spec.machine.semantics != "first-match":
             say(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
@@ -240,11 +241,7 @@ def cmd_gen(args: argparse.Namespace) -> int:
     out = Path(args.out)
     files: dict[str, str] = {}
     for path in args.specs or _default_specs():
-        spec = load_spec(path, compare=False)
-        if spec.machine.has_data:
-            say(f"{path}: skipped: {NO_DATA_CODE}")
-            continue
-        new = generate(spec, out)
+        new = generate(load_spec(path, compare=False), out)
         if clash := sorted(set(new) & set(files)):
             raise UsageError(
                 f"{path}: error: its code would replace {out / clash[0]}, generated from another spec "
@@ -293,23 +290,22 @@ def cmd_conform(args: argparse.Namespace) -> int:
     specs = [load_spec(p, compare=False) for p in args.specs]
     results = []
     for spec in specs:
-        if spec.machine.has_data:
-            say(f"{spec.path}: skipped: {NO_DATA_CODE}")
-            continue
         say(f"{spec.path} ({spec.machine.name})")
         _say_unexpected(spec)
         width = max(len(n) for n in ["up-to-date", *names])
 
         def show(outcome: CheckOutcome, width: int = width) -> None:
             lines = outcome.detail.splitlines() or [""]
-            status = "pass" if outcome.ok else "FAIL"
+            status = "skip" if outcome.data.get("skipped") else "pass" if outcome.ok else "FAIL"
             say(f"  {outcome.name.ljust(width)}  {status}  {lines[0]}", flush=True)
             for line in lines[1:]:
                 say(f"  {'':{width}}        {line}")
 
         results.append(conform(spec, Path(args.generated), names, show, sequences=args.sequences))
-        passed = sum(o.ok for o in results[-1].outcomes)
-        say(f"{spec.path}: {passed} of {len(results[-1].outcomes)} checks passed\n")
+        ran = [o for o in results[-1].outcomes if not o.data.get("skipped")]
+        skipped = len(results[-1].outcomes) - len(ran)
+        note = f" ({skipped} not run)" if skipped else ""
+        say(f"{spec.path}: {sum(o.ok for o in ran)} of {len(ran)} checks passed{note}\n")
     if args.json:
         write_json(args.json, {"schema": "mlca-verify.conform/1", "specs": [r.to_json() for r in results]})
     return EXIT_OK if all(r.ok for r in results) else EXIT_FINDING
@@ -353,10 +349,10 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     writable_folder(Path(args.out))
     spec = load_spec(args.spec, confine=not args.allow_outside)
     if spec.machine.has_data and db is not None:  # the bundle of a machine with data covers the spec alone
-        raise UsageError(f"{db}: error: closed-loop runs drive generated code; {NO_DATA_CODE}")
+        raise UsageError(f"{db}: error: {NO_DATA_LOOP}")
     work = "proofs, conformance (Frama-C takes a few seconds), readings"
     if spec.machine.has_data:
-        work = "proofs and readings (no code is generated for machines with data)"
+        work = "proofs and readings (the spec's evidence: `mlca-verify conform` checks its generated code)"
     say(f"collecting evidence for {args.spec}: {work}", flush=True)
     runs = None
     if db is not None:  # read through the results database's API, before the long work starts

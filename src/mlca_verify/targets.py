@@ -112,14 +112,18 @@ class CMachine:
 
 def load_python(layout: Layout, inputs: Sequence[str], name: str) -> PythonMachine:
     """Import the generated Python of `layout` as the module `name`."""
-    path = layout.python
+    return PythonMachine(import_generated(layout.python, name), inputs)
+
+
+def import_generated(path: Path, name: str) -> ModuleType:
+    """Import a generated Python file as the module `name`."""
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
         raise ToolError(f"{path}: error: cannot import generated module")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
-    return PythonMachine(module, inputs)
+    return module
 
 
 def python_headers() -> Path:

@@ -8,8 +8,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mlca_verify import __version__
-from mlca_verify.codegen.ir import MachineIR, build_ir, require_first_match
-from mlca_verify.codegen.render import TEMPLATE_DIR, render
+from mlca_verify.codegen.data_ir import DataIR, build_data_ir
+from mlca_verify.codegen.ir import GENERATOR_NAME, MachineIR, build_ir, require_first_match
+from mlca_verify.codegen.render import TEMPLATE_DIR, render, render_data
 from mlca_verify.errors import CodegenError
 from mlca_verify.files import write_atomic
 from mlca_verify.logic.graph import Encoding, explore
@@ -17,7 +18,7 @@ from mlca_verify.logic.solver import Solver
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.targets import GENERATED_GLOB
 
-__all__ = ["Drift", "drift", "foreign", "generate", "machine_ir", "source_of", "write"]
+__all__ = ["Drift", "data_ir", "drift", "foreign", "generate", "machine_ir", "source_of", "write"]
 
 
 def _gaps_and_reachable(spec: LoadedSpec) -> tuple[list[str], tuple[str, ...]]:
@@ -44,7 +45,17 @@ def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
 
 def generate(spec: LoadedSpec, out_dir: Path, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
     """Relative path (under `out_dir`) -> text, for every file generated from `spec`."""
+    if spec.machine.has_data:
+        return render_data(data_ir(spec, out_dir), template_dir)
     return render(machine_ir(spec, out_dir), template_dir)
+
+
+def data_ir(spec: LoadedSpec, out_dir: Path) -> DataIR:
+    """The IR of a machine with data; the spec path is recorded as `machine_ir` records it."""
+    base = out_dir.resolve().parent
+    rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
+    m = spec.machine
+    return build_data_ir(m, m.name.lower(), rel, spec.sha256, f"{GENERATOR_NAME} {__version__}")
 
 
 def write(files: dict[str, str], out_dir: Path) -> list[tuple[Path, bool]]:

@@ -9,6 +9,7 @@ from pathlib import Path
 import jinja2
 
 from mlca_verify import escape
+from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, as_binop, show
@@ -171,6 +172,15 @@ def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
     """Every generated file of one machine: relative path -> text."""
     layout = Layout(Path(), ir.module)
     return {layout.relative(kind): _render_in(template_dir, name, {"m": ir}) for kind, name in TEMPLATES.items()}
+
+
+DATA_TEMPLATES = {"python": "data_python.py.j2", "c-header": "data_c.h.j2", "c-source": "data_c.c.j2"}
+
+
+def render_data(ir: DataIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
+    """Every generated file of one machine with data: relative path -> text."""
+    layout = Layout(Path(), ir.module)
+    return {layout.relative(kind): _render_in(template_dir, name, {"m": ir}) for kind, name in DATA_TEMPLATES.items()}
 
 
 def render_template(name: str, **values: object) -> str:

@@ -8,8 +8,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.codegen import drift, generate, machine_ir
+from mlca_verify.codegen import data_ir, drift, generate, machine_ir
 from mlca_verify.conform.checks import CHECKS, CheckOutcome, Target, run_checks
+from mlca_verify.conform.data import DATA_CHECKS, DataTarget
 from mlca_verify.errors import UsageError
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.targets import Layout
@@ -55,6 +56,8 @@ def conform(
     template_dir: Path | None = None,
 ) -> Conformance:
     """Run `checks` on the code for `spec` found in `generated`; `report` sees each outcome as it lands."""
+    if spec.machine.has_data:
+        return _conform_data(spec, generated, checks, report, sequences=sequences, template_dir=template_dir)
     ir = machine_ir(spec, generated)
     layout = Layout(generated.resolve(), ir.module)
     for path in layout.missing():
@@ -66,4 +69,40 @@ def conform(
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
         target = Target(spec, ir, layout, Path(build), sequences)
         outcomes = run_checks(target, checks, report)
+    return Conformance(spec, [fresh, *outcomes])
+
+
+def _conform_data(
+    spec: LoadedSpec,
+    generated: Path,
+    checks: list[str],
+    report: Callable[[CheckOutcome], None],
+    *,
+    sequences: int,
+    template_dir: Path | None,
+) -> Conformance:
+    ir = data_ir(spec, generated)
+    layout = Layout(generated.resolve(), ir.module)
+    for path in layout.missing():
+        raise UsageError(
+            f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
+        )
+    fresh = _up_to_date(spec, generated, template_dir)
+    report(fresh)
+    outcomes: list[CheckOutcome] = []
+    with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
+        target = DataTarget(spec.machine, ir, layout, Path(build), sequences)
+        wanted = [n for n in checks if n in DATA_CHECKS]
+        if any(n != "compile" for n in wanted) and "compile" not in wanted:
+            wanted.insert(0, "compile")
+        for name in wanted:
+            outcome = DATA_CHECKS[name](target)
+            report(outcome)
+            outcomes.append(outcome)
+        for name in checks:
+            if name not in DATA_CHECKS:
+                why = "not run: no contracts are generated for a machine with data yet (see the README)"
+                outcome = CheckOutcome(name, True, why, data={"skipped": True})
+                report(outcome)
+                outcomes.append(outcome)
     return Conformance(spec, [fresh, *outcomes])

@@ -211,13 +211,17 @@ CPPCHECK = (
 
 
 def cppcheck(t: Target) -> CheckOutcome:
+    return cppcheck_file(t.c_file, t.build)
+
+
+def cppcheck_file(c_file: Path, build: Path) -> CheckOutcome:
     # cppcheck's addons write dump files beside the source: check a private copy, so that runs in parallel on
     # the same generated file cannot trip over each other and nothing is written into generated/
-    private = t.build / "cppcheck"
+    private = build / "cppcheck"
     private.mkdir(exist_ok=True)
-    for source in (t.c_file, *t.c_file.parent.glob("*.h")):
+    for source in (c_file, *c_file.parent.glob("*.h")):
         shutil.copy2(source, private / source.name)
-    ran = run([*CPPCHECK, t.c_file.name], timeout=300, cwd=private)
+    ran = run([*CPPCHECK, c_file.name], timeout=300, cwd=private)
     findings = [line for line in ran.output.splitlines() if re.search(r":\d+:\d+: ", line)]
     if ran.returncode != 0 or findings:
         first = findings[0] if findings else ran.output.strip()

@@ -1,0 +1,230 @@
+"""The intermediate form of a machine with data: every expression already lowered to C and to Python (see
+`lower`), per state the branches in priority order, per variable its update on each transition and every step.
+The templates print it; they never re-derive semantics from the spec."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from fractions import Fraction
+
+from mlca_verify.codegen.lower import Lowering, c_type, names_of, real_literal
+from mlca_verify.errors import CodegenError
+from mlca_verify.model import Expr, Machine, Prev, Type, Var, nodes, show
+
+
+@dataclass(frozen=True)
+class Code:
+    """One expression in both languages, with the spec's text for comments."""
+
+    c: str
+    py: str
+    text: str
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    ctype: str
+    pytype: str
+    doc: str
+    cite: str
+    unit: str = ""
+    default: Code | None = None  # a param's default, a variable's initial value
+    low: Code | None = None
+    high: Code | None = None
+
+
+@dataclass(frozen=True)
+class Definition:
+    name: str
+    ctype: str
+    pytype: str
+    code: Code
+    doc: str
+    cite: str
+
+
+@dataclass(frozen=True)
+class Branch:
+    number: int  # the transition's position in the spec, from 1: what `fired` holds
+    transition: str
+    target: str
+    guard: Code
+    cite: str
+
+
+@dataclass(frozen=True)
+class Case:
+    state: str
+    index: int
+    branches: tuple[Branch, ...]
+
+
+@dataclass(frozen=True)
+class Update:
+    variable: str
+    ctype: str
+    on: tuple[tuple[int, Code], ...]  # (transition number, value) where a transition assigns it
+    every: Code | None
+
+
+@dataclass(frozen=True)
+class Register:
+    """What prev(e) reads: e over a context, kept after each step."""
+
+    index: int
+    ctype: str
+    pytype: str
+    code: Code
+
+
+@dataclass(frozen=True)
+class Property:
+    index: int
+    id: str
+    code: Code
+    cite: str
+
+
+@dataclass(frozen=True)
+class DataIR:
+    name: str
+    module: str
+    macro: str
+    doc: str
+    cite: str
+    spec_path: str
+    spec_sha256: str
+    generator: str
+    initial: str
+    states: tuple[str, ...]
+    inputs: tuple[Field, ...]
+    signals: tuple[Field, ...]
+    params: tuple[Field, ...]
+    variables: tuple[Field, ...]
+    definitions: tuple[Definition, ...]
+    outputs: tuple[Definition, ...]
+    cases: tuple[Case, ...]
+    updates: tuple[Update, ...]
+    registers: tuple[Register, ...]
+    invariants: tuple[Property, ...]
+    transitions: tuple[tuple[int, str, str], ...] = field(default_factory=tuple)  # number, id, target
+    helpers: frozenset[str] = frozenset()  # the C helpers the code calls: min_d, max_i, div, ...
+
+
+PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
+
+
+def _bounds_code(low: Fraction, high: Fraction, kind: Type) -> tuple[Code, Code]:
+    def one(v: Fraction) -> Code:
+        text = real_literal(v) if kind == "real" else str(int(v))
+        return Code(text, text, str(v))
+
+    return one(low), one(high)
+
+
+def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> DataIR:
+    macro = module.upper()
+    names = names_of(m, module, macro)
+    c, py = Lowering(names, "c"), Lowering(names, "py")
+    prevs: dict[Prev, int] = {}
+    for inv in m.invariants:
+        for n in nodes(inv.expr):
+            if isinstance(n, Prev) and n not in prevs:
+                if any(isinstance(x, Var) and names.kinds[x.name] == "output" for x in nodes(n.arg)):
+                    raise CodegenError(f"{inv.loc}: error: prev() of an output is not generated yet")
+                prevs[n] = len(prevs)
+    c_prev = {p: f"prev{k}" for p, k in prevs.items()}
+
+    def code(e: Expr, with_prev: bool = False) -> Code:
+        return Code(c.go(e, c_prev if with_prev else None), py.go(e, c_prev if with_prev else None), show(e))
+
+    def typed(e: Expr, kind: Type) -> Code:
+        return Code(c.as_type(e, kind, None), py.as_type(e, kind, None), show(e))
+
+    def number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
+        low, high = _bounds_code(*bounds, kind) if bounds is not None else (None, None)
+        return Field(
+            item.name,  # type: ignore[attr-defined]
+            c_type(kind, bounds),
+            PY_TYPES[kind],
+            item.doc,  # type: ignore[attr-defined]
+            item.cite,  # type: ignore[attr-defined]
+            low=low,
+            high=high,
+            **extra,  # type: ignore[arg-type]
+        )
+
+    def value(v: Fraction, kind: Type) -> Code:
+        text = real_literal(v) if kind == "real" else str(int(v))
+        return Code(text, text, str(v))
+
+    numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
+    cases = tuple(
+        Case(
+            s,
+            k,
+            tuple(
+                Branch(numbers[t.id], t.id, t.target, code(t.guard), t.cite) for t in m.transitions if t.applies_to(s)
+            ),
+        )
+        for k, s in enumerate(m.states)
+    )
+    updates = tuple(
+        Update(
+            v.name,
+            c_type(v.type, v.range),
+            tuple(
+                (numbers[t.id], typed(u.expr, v.type)) for t in m.transitions for u in t.updates if u.variable == v.name
+            ),
+            typed(v.every, v.type) if v.every is not None else None,
+        )
+        for v in m.variables
+    )
+    ir = DataIR(
+        name=m.name,
+        module=module,
+        macro=macro,
+        doc=m.doc,
+        cite=m.cite,
+        spec_path=spec_path,
+        spec_sha256=sha,
+        generator=generator,
+        initial=m.initial,
+        states=m.states,
+        inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
+        signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
+        params=tuple(number_field(p, p.type, p.range, default=value(p.default, p.type)) for p in m.params),
+        variables=tuple(number_field(v, v.type, v.range, default=value(v.initial, v.type)) for v in m.variables),
+        definitions=tuple(_definition(d, c, py) for d in m.definitions),
+        outputs=tuple(
+            Definition(o.name, c_type(o.type), PY_TYPES[o.type], typed(o.expr, o.type), o.doc, o.cite)
+            for o in m.outputs
+        ),
+        cases=cases,
+        updates=updates,
+        registers=tuple(
+            Register(k, c_type(c.type_of(p.arg)), PY_TYPES[c.type_of(p.arg)], code(p.arg)) for p, k in prevs.items()
+        ),
+        invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
+        transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
+    )
+    return replace(ir, helpers=frozenset(h for h in HELPERS if f"{module}_{h}(" in repr(ir)))
+
+
+HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
+
+
+def _definition(d: object, c: Lowering, py: Lowering) -> Definition:
+    from mlca_verify.model import Definition as Spec
+
+    assert isinstance(d, Spec)
+    body_c, body_py = c.as_type(d.expr, d.type, None), py.as_type(d.expr, d.type, None)
+    if d.type == "bool" and d.signals:
+        valid_c = " && ".join(c.valid(s) for s in d.signals)
+        valid_py = " and ".join(py.valid(s) for s in d.signals)
+        fallback_c = "true" if d.if_invalid else "false"
+        fallback_py = "True" if d.if_invalid else "False"
+        body_c = f"(({valid_c}) ? {body_c} : {fallback_c})"
+        body_py = f"({body_py} if ({valid_py}) else {fallback_py})"
+    return Definition(d.name, c_type(d.type), PY_TYPES[d.type], Code(body_c, body_py, show(d.expr)), d.doc, d.cite)

@@ -1,0 +1,221 @@
+"""Expressions of a machine with data lowered to C99 and to Python with the same operations in the same order.
+
+Both languages read one view of the machine: the context `c` (mode and variables, before or after the step), the
+inputs `i` (booleans and signals) and the params `p`. A definition is a function of that view, so a guard reads
+it over the context before the step and a property over the context after it. Reals are IEEE 754 binary64 in
+both languages; `min`, `max` and `/` go through small helpers that behave alike (Python's `/` would raise where
+C gives an infinity or a NaN). A signal's validity is `lo <= x && x <= hi`, false for NaN and the infinities
+without any library call.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from fractions import Fraction
+
+from mlca_verify.model import (
+    Arith,
+    BinOp,
+    Call,
+    Cmp,
+    Const,
+    Expr,
+    Ite,
+    Machine,
+    Neg,
+    Not,
+    Num,
+    Prev,
+    StateIn,
+    Type,
+    Var,
+)
+
+INT_LIMIT = 2**31 - 1
+
+
+def c_type(kind: Type, bounds: tuple[Fraction, Fraction] | None = None) -> str:
+    if kind == "bool":
+        return "bool"
+    if kind == "real":
+        return "double"
+    if bounds is not None and bounds[0] >= -INT_LIMIT - 1 and bounds[1] <= INT_LIMIT:
+        return "int32_t"
+    return "int64_t"
+
+
+def real_literal(value: Fraction) -> str:
+    """The binary64 nearest to `value`, written so that C and Python read the same double."""
+    text = repr(float(value))
+    return text if any(ch in text for ch in ".en") else text + ".0"
+
+
+@dataclass(frozen=True)
+class Names:
+    """How each name of the machine is read: its kind and type."""
+
+    kinds: Mapping[str, str]  # input, signal, param, variable, definition, output
+    types: Mapping[str, Type]
+    states: Mapping[str, int]
+    prefix: str  # C prefix of the machine's functions and types
+    macro: str
+    ranges: Mapping[str, tuple[Fraction, Fraction]]  # of each signal
+
+
+def names_of(m: Machine, prefix: str, macro: str) -> Names:
+    kinds: dict[str, str] = {i.name: "input" for i in m.inputs}
+    types: dict[str, Type] = {i.name: "bool" for i in m.inputs}
+    for group, kind in (
+        (m.signals, "signal"),
+        (m.params, "param"),
+        (m.variables, "variable"),
+        (m.definitions, "definition"),
+        (m.outputs, "output"),
+    ):
+        for item in group:
+            kinds[item.name] = kind
+            types[item.name] = item.type
+    ranges = {s.name: s.range for s in m.signals}
+    return Names(kinds, types, {s: k for k, s in enumerate(m.states)}, prefix, macro, ranges)
+
+
+class Lowering:
+    """One language's text of expressions. `lang` is "c" or "py"."""
+
+    def __init__(self, names: Names, lang: str) -> None:
+        self.n = names
+        self.lang = lang
+
+    def type_of(self, e: Expr) -> Type:
+        if isinstance(e, Const | StateIn | Not | BinOp | Cmp):
+            return "bool"
+        if isinstance(e, Num):
+            return "real" if e.real or e.value.denominator != 1 else "int"
+        if isinstance(e, Var):
+            return self.n.types[e.name]
+        if isinstance(e, Call) and e.fn == "valid":
+            return "bool"
+        if isinstance(e, Prev):
+            return self.type_of(e.arg)
+        if isinstance(e, Arith) and e.op == "/":
+            return "real"
+        parts = [e.then, e.other] if isinstance(e, Ite) else list(e.args) if isinstance(e, Call) else []
+        if isinstance(e, Arith):
+            parts = [e.left, e.right]
+        if isinstance(e, Neg):
+            parts = [e.arg]
+        kinds = {self.type_of(x) for x in parts}
+        return "real" if "real" in kinds else "bool" if kinds == {"bool"} else "int"
+
+    # --- text ----------------------------------------------------------------------------------------
+
+    def go(self, e: Expr, prevs: Mapping[Prev, str] | None = None) -> str:
+        """The expression, fully parenthesised (no precedence to get wrong in either language)."""
+        c = self.lang == "c"
+        if isinstance(e, Const):
+            return ("true" if e.value else "false") if c else ("True" if e.value else "False")
+        if isinstance(e, Num):
+            return self.number(e)
+        if isinstance(e, Var):
+            return self.name(e.name)
+        if isinstance(e, StateIn):
+            mode = "c->mode" if c else "c.mode"
+            tests = [f"({mode} == {self.state(s)})" for s in e.states]
+            return tests[0] if len(tests) == 1 else "(" + (" || " if c else " or ").join(tests) + ")"
+        if isinstance(e, Not):
+            return f"(!{self.go(e.arg, prevs)})" if c else f"(not {self.go(e.arg, prevs)})"
+        if isinstance(e, BinOp):
+            a, b = self.go(e.left, prevs), self.go(e.right, prevs)
+            if e.op == "->":
+                return f"((!{a}) || {b})" if c else f"((not {a}) or {b})"
+            op = {"and": "&&", "or": "||", "<->": "=="}[e.op] if c else {"and": "and", "or": "or", "<->": "=="}[e.op]
+            return f"({a} {op} {b})"
+        if isinstance(e, Prev):
+            if prevs is None:
+                raise ValueError("prev() outside a property")
+            return prevs[e]
+        return self.data(e, prevs)
+
+    def data(self, e: Expr, prevs: Mapping[Prev, str] | None) -> str:
+        c = self.lang == "c"
+        if isinstance(e, Neg):
+            if isinstance(e.arg, Num):
+                return self.number(e.arg, negative=True)
+            return f"(-{self.go(e.arg, prevs)})"
+        if isinstance(e, Ite):
+            kind = self.type_of(e)
+            cond, a, b = self.go(e.cond, prevs), self.as_type(e.then, kind, prevs), self.as_type(e.other, kind, prevs)
+            return f"({cond} ? {a} : {b})" if c else f"({a} if {cond} else {b})"
+        if isinstance(e, Cmp):
+            both: Type | None = "real" if "real" in (self.type_of(e.left), self.type_of(e.right)) else None
+            a = self.as_type(e.left, both, prevs)
+            b = self.as_type(e.right, both, prevs)
+            return f"({a} {e.op} {b})"
+        if isinstance(e, Call):
+            return self.call(e, prevs)
+        assert isinstance(e, Arith)
+        kind = self.type_of(e)
+        a, b = self.as_type(e.left, kind, prevs), self.as_type(e.right, kind, prevs)
+        if e.op == "/":
+            return f"{self.n.prefix}_div({a}, {b})" if c else f"_div({a}, {b})"
+        return f"({a} {e.op} {b})"
+
+    def as_type(self, e: Expr, kind: Type | None, prevs: Mapping[Prev, str] | None) -> str:
+        """`e`, converted to a double where an int meets a real (as z3's ToReal does)."""
+        text = self.go(e, prevs)
+        if kind == "real" and self.type_of(e) == "int":
+            if isinstance(e, Num):
+                return real_literal(e.value)
+            return f"((double){text})" if self.lang == "c" else f"float({text})"
+        return text
+
+    def call(self, e: Call, prevs: Mapping[Prev, str] | None) -> str:
+        c = self.lang == "c"
+        if e.fn == "valid":
+            arg = e.args[0]
+            assert isinstance(arg, Var)
+            return self.valid(arg.name)
+        kind = self.type_of(e)
+        args = [self.as_type(a, kind, prevs) for a in e.args]
+        suffix = "d" if kind == "real" else "i"
+        if e.fn == "abs":
+            helper = f"{self.n.prefix}_abs_{suffix}" if c else "_abs"
+            return f"{helper}({args[0]})"
+        helper = f"{self.n.prefix}_{e.fn}_{suffix}" if c else f"_{e.fn}"
+        text = args[0]
+        for a in args[1:]:
+            text = f"{helper}({text}, {a})"  # as z3: the running result, then the next argument
+        return text
+
+    def valid(self, signal: str) -> str:
+        """In range: false for NaN and the infinities (every comparison with NaN is false), no library call."""
+        low, high = self.n.ranges[signal]
+        kind = self.n.types[signal]
+        lo, hi = (real_literal(v) if kind == "real" else self.number(Num(v, False)) for v in (low, high))
+        x = self.name(signal)
+        return f"(({lo} <= {x}) && ({x} <= {hi}))" if self.lang == "c" else f"(({lo} <= {x}) and ({x} <= {hi}))"
+
+    def number(self, e: Num, negative: bool = False) -> str:
+        """A literal; in C an int is an int64_t constant, the type of every int computation (MISRA C:2012
+        rule 10.4: both operands of one essential type category; 10.6: no narrower composite assigned)."""
+        value = -e.value if negative else e.value
+        if e.real or value.denominator != 1:
+            return real_literal(value)
+        return f"INT64_C({int(value)})" if self.lang == "c" else str(int(value))
+
+    def state(self, s: str) -> str:
+        return f"{self.n.macro}_{s}" if self.lang == "c" else f"State.{s}"
+
+    def name(self, name: str) -> str:
+        kind = self.n.kinds[name]
+        c = self.lang == "c"
+        if kind in ("input", "signal"):
+            return f"i->{name}" if c else f"i.{name}"
+        if kind == "param":
+            return f"p->{name}" if c else f"p.{name}"
+        if kind == "variable":
+            return f"c->{name}" if c else f"c.{name}"
+        if kind == "definition":
+            return f"{self.n.prefix}_def_{name}(c, i, p)" if c else f"_def_{name}(c, i, p)"
+        return f"o->{name}" if c else f"o.{name}"

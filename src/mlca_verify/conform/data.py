@@ -1,0 +1,435 @@
+"""`mlca-verify conform` for a machine with data: the generated Python, the generated C and the z3 semantics of
+the spec, step by step on a boundary set and on long random sequences, compared bit for bit.
+
+The C runs in a small generated harness (one line of text per step: the context and the inputs in, the context,
+the outputs and the monitor out; reals as hexadecimal floats, exact), built once plainly and once under
+AddressSanitizer and UBSan with float-divide-by-zero. The z3 side is the engine's own step relation
+(`logic.symbolic`), instantiated with the same values: an invalid sample (outside its range, NaN, an infinity)
+is given to z3 as a value outside the range, which is what the spec's semantics reads of it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import random
+import re
+import struct
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import z3
+
+from mlca_verify.codegen.data_ir import DataIR
+from mlca_verify.codegen.render import render_template
+from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file
+from mlca_verify.logic.symbolic import System, value_of
+from mlca_verify.model import Machine, Type
+from mlca_verify.targets import Layout, import_generated
+from mlca_verify.tools import C_FLAGS, run
+
+SANITIZE = ("-fsanitize=address,undefined,float-divide-by-zero", "-fno-sanitize-recover=all", "-g", "-O1")
+SEQUENCE_STEPS = 10_000
+SUBNORMAL = 5e-324
+
+
+@dataclass
+class DataTarget:
+    """A machine with data and its generated files, with the builds the checks share."""
+
+    machine: Machine
+    ir: DataIR
+    layout: Layout
+    build: Path
+    sequences: int
+    py: ModuleType | None = None
+    harness: Path | None = None
+
+
+Row = tuple[Any, ...]  # a context and the inputs of one step, in the harness's order
+
+
+def _fmt(value: object) -> str:
+    if isinstance(value, bool):
+        return "1" if value else "0"
+    if isinstance(value, float):
+        return value.hex()
+    return str(value)
+
+
+def _parse(token: str, real: bool) -> object:
+    return float.fromhex(token.replace("-nan", "nan")) if real else int(token)
+
+
+def _same(a: object, b: object) -> bool:
+    """Bit for bit, but any NaN equals any NaN (the harness prints no payload)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or struct.pack("<d", a) == struct.pack("<d", b)
+    return a == b
+
+
+class Columns:
+    """The harness's columns, and how the Python module's objects map onto them."""
+
+    def __init__(self, ir: DataIR) -> None:
+        self.ir = ir
+        self.var_real = [v.ctype == "double" for v in ir.variables]
+        self.reg_real = [r.ctype == "double" for r in ir.registers]
+        self.out_real = [o.ctype == "double" for o in ir.outputs]
+
+    def line(self, row: Row) -> str:
+        return " ".join(_fmt(v) for v in row)
+
+    def parse(self, line: str) -> Row:
+        tokens = line.split()
+        reals = [False, *self.var_real, *self.reg_real, False, *self.out_real]
+        reals += [False] * len(self.ir.invariants)
+        return tuple(_parse(t, r) for t, r in zip(tokens, reals, strict=True))
+
+    def python_step(self, py: ModuleType, row: Row) -> Row:
+        ir = self.ir
+        ctx, inputs = self.split(py, row)
+        before = py.Context(**vars(ctx))
+        out = py.step(ctx, inputs)
+        failing = py.monitor(before, ctx, inputs, py.DEFAULT_PARAMS, out)
+        values: list[object] = [int(ctx.mode)]
+        values += [getattr(ctx, v.name) for v in ir.variables]
+        values += [getattr(ctx, f"prev{r.index}") for r in ir.registers]
+        values.append(1 if ctx.first else 0)
+        values += [getattr(out, o.name) for o in ir.outputs]
+        values += [1 if inv.id in failing else 0 for inv in ir.invariants]
+        return tuple(int(v) if isinstance(v, bool) else v for v in values)
+
+    def split(self, py: ModuleType, row: Row) -> tuple[Any, Any]:
+        ir = self.ir
+        k = 0
+        ctx = py.Context()
+        ctx.mode = row[k]
+        k += 1
+        for v in ir.variables:
+            setattr(ctx, v.name, row[k])
+            k += 1
+        for r in ir.registers:
+            setattr(ctx, f"prev{r.index}", bool(row[k]) if r.pytype == "bool" else row[k])
+            k += 1
+        ctx.first = bool(row[k])
+        k += 1
+        values = {f.name: bool(row[k + n]) for n, f in enumerate(ir.inputs)}
+        k += len(ir.inputs)
+        values.update({f.name: row[k + n] for n, f in enumerate(ir.signals)})
+        return ctx, py.Inputs(**values)
+
+    def next_row(self, after: Row, inputs: Row) -> Row:
+        """The harness row of the next step: the context after this one, then new inputs."""
+        keep = 1 + len(self.ir.variables) + len(self.ir.registers) + 1
+        return after[:keep] + inputs
+
+
+# --- the boundary set and the sequences ----------------------------------------------------------------
+
+
+def signal_values(low: float, high: float, real: bool) -> list[float | int]:
+    """Range ends, just outside them, the middle, and for a real ±0, NaN, ±infinity and a subnormal."""
+    if not real:
+        return [int(low), int(high), int(low) - 1, int(high) + 1, (int(low) + int(high)) // 2]
+    outside = [math.nextafter(low, -math.inf), math.nextafter(high, math.inf)]
+    return [low, high, *outside, (low + high) / 2, 0.0, -0.0, math.nan, math.inf, -math.inf, SUBNORMAL]
+
+
+def boundary_rows(ir: DataIR) -> Iterator[Row]:
+    """Every mode and boolean combination, each signal through its boundary values (the others in the middle),
+    and each variable at 0, its limits and its initial value (the others initial)."""
+    mids: list[float | int] = [_mid(f) for f in ir.signals]
+    initial: list[float | int] = [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
+    contexts = [initial]
+    for k in range(len(ir.variables)):
+        contexts += [[*initial[:k], x, *initial[k + 1 :]] for x in variable_values(ir, k)]
+    signal_sets = [mids]
+    for k, f in enumerate(ir.signals):
+        real = f.ctype == "double"
+        for x in signal_values(_value(f.low.c, f.ctype), _value(f.high.c, f.ctype), real):  # type: ignore[union-attr]
+            signal_sets.append([*mids[:k], x, *mids[k + 1 :]])
+    registers = [False if r.pytype == "bool" else 0 for r in ir.registers]
+    for mode in range(len(ir.states)):
+        for first in (1, 0):
+            for bits in itertools.product((1, 0), repeat=len(ir.inputs)):
+                for ctx in contexts:
+                    for signals in signal_sets:
+                        yield (mode, *ctx, *registers, first, *bits, *signals)
+
+
+def variable_values(ir: DataIR, k: int) -> list[float | int]:
+    """0, the limits and, for an int, each int param's default and its neighbours (the thresholds a timer is
+    compared with), within the variable's range."""
+    v = ir.variables[k]
+    values: set[float | int] = {0}
+    if v.low is not None and v.high is not None:
+        low, high = _value(v.low.c, v.ctype), _value(v.high.c, v.ctype)
+        values |= {low, high}
+        if v.ctype != "double":
+            defaults = [int(p.default.c) for p in ir.params if p.ctype != "double" and p.default is not None]
+            values |= {d + e for d in defaults for e in (-1, 0, 1) if low <= d + e <= high}
+    return sorted(values)
+
+
+def _value(text: str, ctype: str) -> float | int:
+    return float(text) if ctype == "double" else int(text)
+
+
+def _mid(f: Any) -> float | int:
+    low, high = _value(f.low.c, f.ctype), _value(f.high.c, f.ctype)
+    return (low + high) / 2 if f.ctype == "double" else (low + high) // 2
+
+
+def random_inputs(ir: DataIR, rng: random.Random) -> Row:
+    """Booleans, and signals mostly in range, now and then at a boundary value."""
+    bits = tuple(rng.random() < 0.7 for _ in ir.inputs)
+    signals: list[object] = []
+    for f in ir.signals:
+        low, high = _value(f.low.c, f.ctype), _value(f.high.c, f.ctype)  # type: ignore[union-attr]
+        if rng.random() < 0.05:
+            signals.append(rng.choice(signal_values(low, high, f.ctype == "double")))
+        elif f.ctype == "double":
+            signals.append(rng.uniform(low, high))
+        else:
+            signals.append(rng.randint(int(low), int(high)))
+    return tuple(int(b) for b in bits) + tuple(signals)
+
+
+# --- the z3 semantics --------------------------------------------------------------------------------------
+
+
+class Semantics:
+    """One step of the spec by z3: the engine's step relation with every constant of the step fixed."""
+
+    def __init__(self, machine: Machine) -> None:
+        self.m = machine
+        prevs = [p for inv in machine.invariants for p in _prevs(inv.expr)]
+        self.system = System(machine, list(dict.fromkeys(prevs)))
+        self.pre, self.inputs, self.post = self.system.frame("s0"), self.system.inputs("s0"), self.system.frame("s1")
+        self.link, self.terms = self.system.step(self.pre, self.inputs, self.post)
+        self.solver = z3.Solver()
+        self.solver.add(self.link)
+
+    def step(self, row: Row) -> tuple[int, list[object], list[object]]:
+        """The mode, the variables and the outputs after the step from `row`."""
+        m, s = self.m, self.system
+        k = 0
+        fixed = [self.pre.mode == int(row[k])]
+        k += 1
+        for v in m.variables:
+            fixed.append(self.pre.variables[v.name] == _z3_value(row[k], v.type, None))
+            k += 1
+        for reg in self.pre.registers.values():
+            fixed.append(reg == (z3.BoolVal(bool(row[k])) if z3.is_bool(reg) else row[k]))
+            k += 1
+        fixed.append(self.pre.first == bool(row[k]))
+        k += 1
+        for i in m.inputs:
+            fixed.append(self.inputs.bools[i.name] == bool(row[k]))
+            k += 1
+        for sig in m.signals:
+            fixed.append(self.inputs.signals[sig.name] == _z3_value(row[k], sig.type, sig.range))
+            k += 1
+        if self.solver.check(*fixed) != z3.sat:
+            raise AssertionError(f"the spec has no step from {row}")
+        model = self.solver.model()
+        mode = model.eval(self.post.mode, model_completion=True).as_long()
+        variables = [_from_z3(model.eval(self.post.variables[v.name], model_completion=True)) for v in m.variables]
+        outputs = [_from_z3(model.eval(t, model_completion=True)) for t in s.outputs_at(self.terms.post).values()]
+        return mode, variables, outputs
+
+
+def _prevs(expr: Any) -> list[Any]:
+    from mlca_verify.model import Prev, nodes
+
+    return [n for n in nodes(expr) if isinstance(n, Prev)]
+
+
+def _z3_value(value: object, kind: Type, bounds: tuple[Fraction, Fraction] | None) -> z3.ExprRef:
+    """A sample as z3 reads it: NaN and the infinities are values outside the signal's range."""
+    if isinstance(value, float) and not math.isfinite(value):
+        assert bounds is not None
+        outside = bounds[0] - 1 if value == -math.inf else bounds[1] + 1
+        return value_of(outside, kind)
+    assert isinstance(value, int | float)
+    return value_of(Fraction(value), kind)
+
+
+def _from_z3(term: z3.ExprRef) -> object:
+    if z3.is_true(term) or z3.is_false(term):
+        return 1 if z3.is_true(term) else 0
+    if z3.is_int_value(term):
+        return int(str(term))
+    return float(Fraction(term.numerator_as_long(), term.denominator_as_long()))
+
+
+# --- checks ------------------------------------------------------------------------------------------------
+
+
+def build_harness(t: DataTarget, name: str, extra: Sequence[str]) -> tuple[Path | None, str]:
+    source = t.build / "harness.c"
+    source.write_text(render_template("data_harness.c.j2", m=t.ir), encoding="utf-8")
+    exe = t.build / name
+    ran = run(
+        [
+            "gcc",
+            *C_FLAGS,
+            *extra,
+            "-ffp-contract=off",
+            f"-I{t.layout.c_header.parent}",
+            "-o",
+            str(exe),
+            str(source),
+            str(t.layout.c_source),
+        ],
+        timeout=180,
+    )
+    return (exe if ran.returncode == 0 else None), ran.output.strip()
+
+
+def compile_and_load(t: DataTarget) -> CheckOutcome:
+    t.harness, output = build_harness(t, "harness", ["-O2"])
+    if t.harness is None:
+        return CheckOutcome("compile", False, f"gcc failed:\n{output}")
+    t.py = import_generated(t.layout.python, f"mlca_generated_{t.ir.module}")
+    return CheckOutcome("compile", True, f"gcc {' '.join(C_FLAGS)} -O2 -ffp-contract=off: no warning; Python imported")
+
+
+def run_harness(exe: Path, rows: Sequence[Row], columns: Columns) -> list[Row]:
+    text = "".join(columns.line(r) + "\n" for r in rows)
+    ran = run([str(exe)], stdin=text, timeout=600)
+    if ran.returncode != 0:
+        raise AssertionError(f"the harness failed (exit {ran.returncode}):\n{ran.output[-3000:]}")
+    return [columns.parse(line) for line in ran.output.splitlines()]
+
+
+def exhaustive(t: DataTarget) -> CheckOutcome:
+    """The boundary set: Python and C bit for bit, and both as z3's semantics of the spec says."""
+    if t.py is None or t.harness is None:
+        return CheckOutcome("exhaustive", False, "not run: the code did not compile")
+    columns, z3_step = Columns(t.ir), Semantics(t.machine)
+    rows = list(boundary_rows(t.ir))
+    c_rows = run_harness(t.harness, rows, columns)
+    keep = 1 + len(t.ir.variables)
+    outputs = slice(keep + len(t.ir.registers) + 1, keep + len(t.ir.registers) + 1 + len(t.ir.outputs))
+    for row, c_after in zip(rows, c_rows, strict=True):
+        py_after = columns.python_step(t.py, row)
+        if not all(_same(a, b) for a, b in zip(py_after, c_after, strict=True)):
+            return CheckOutcome("exhaustive", False, f"Python and C differ from {row}: {py_after} vs {c_after}")
+        mode, variables, outs = z3_step.step(row)
+        ours = (c_after[0], *c_after[1:keep], *c_after[outputs])
+        theirs = (mode, *variables, *outs)
+        if not all(_close(a, b) for a, b in zip(ours, theirs, strict=True)):
+            return CheckOutcome(
+                "exhaustive", False, f"the code and the spec (z3) differ from {row}: {ours} vs {theirs}"
+            )
+    detail = (
+        f"{len(rows)} steps (every mode, boolean combination and first-step flag; each signal at its range ends, "
+        "just outside, the middle, ±0, NaN, ±infinity and a subnormal; each variable at 0, its limits and its "
+        "initial value): Python and C agree bit for bit, and both agree with z3's semantics of the spec"
+    )
+    return CheckOutcome("exhaustive", True, detail, data={"steps": len(rows)})
+
+
+def _close(a: object, b: object) -> bool:
+    if isinstance(a, float) or isinstance(b, float):
+        x, y = float(a), float(b)  # type: ignore[arg-type]
+        return (math.isnan(x) and math.isnan(y)) or x == y or abs(x - y) <= 1e-9 * max(abs(x), abs(y))
+    return a == b
+
+
+def sequences(t: DataTarget) -> CheckOutcome:
+    """Random runs from the initial context, each step fed to Python and C alike; proved invariants must hold."""
+    if t.py is None or t.harness is None:
+        return CheckOutcome("sequences", False, "not run: the code did not compile")
+    columns = Columns(t.ir)
+    proved = {inv.id for inv in t.machine.invariants if inv.expect == "holds"}
+    total = 0
+    for seed in range(max(1, t.sequences // 100)):
+        rng = random.Random(seed)
+        ctx = t.py.Context()
+        row: Row = (int(ctx.mode), *[getattr(ctx, v.name) for v in t.ir.variables])
+        row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.registers), 1)
+        rows: list[Row] = []
+        py_rows: list[Row] = []
+        for _ in range(SEQUENCE_STEPS):
+            row = row + random_inputs(t.ir, rng)
+            after = columns.python_step(t.py, row)
+            rows.append(row)
+            py_rows.append(after)
+            failing = [inv.id for inv, bit in zip(t.ir.invariants, after[-len(t.ir.invariants) :], strict=False) if bit]
+            if proved & set(failing):
+                return CheckOutcome("sequences", False, f"a proved invariant failed: {sorted(proved & set(failing))}")
+            row = after[: 1 + len(t.ir.variables) + len(t.ir.registers) + 1]
+        c_rows = run_harness(t.harness, rows, columns)
+        for k, (a, b) in enumerate(zip(py_rows, c_rows, strict=True)):
+            if not all(_same(x, y) for x, y in zip(a, b, strict=True)):
+                return CheckOutcome("sequences", False, f"seed {seed}, step {k + 1}: Python {a}, C {b}")
+        total += len(rows)
+    detail = f"{total} steps in runs of {SEQUENCE_STEPS}: Python and C agree bit for bit; no proved invariant fails"
+    return CheckOutcome("sequences", True, detail, data={"steps": total})
+
+
+def sanitizers(t: DataTarget) -> CheckOutcome:
+    exe, output = build_harness(t, "harness-san", list(SANITIZE))
+    if exe is None:
+        return CheckOutcome("sanitizers", False, f"gcc failed:\n{output}")
+    columns = Columns(t.ir)
+    rows = list(boundary_rows(t.ir))
+    try:
+        run_harness(exe, rows, columns)
+    except AssertionError as err:
+        return CheckOutcome("sanitizers", False, str(err))
+    return CheckOutcome("sanitizers", True, f"{len(rows)} boundary steps under {' '.join(SANITIZE[:1])}: no report")
+
+
+def cross_build(t: DataTarget) -> CheckOutcome:
+    obj = t.build / "m4.o"
+    su = t.build / "m4.su"
+    ran = run(
+        [
+            "arm-none-eabi-gcc",
+            *C_FLAGS,
+            *ARM_FLAGS,
+            "-ffp-contract=off",
+            "-fstack-usage",
+            "-c",
+            "-o",
+            str(obj),
+            str(t.layout.c_source),
+        ],
+        timeout=120,
+    )
+    if ran.returncode != 0:
+        return CheckOutcome("cortex-m4", False, f"arm-none-eabi-gcc failed:\n{ran.output.strip()}")
+    size = run(["arm-none-eabi-size", str(obj)]).output.splitlines()[-1].split()
+    text, data, bss = (int(x) for x in size[:3])
+    stack = obj.with_suffix(".su")
+    usage = stack.read_text(encoding="utf-8") if stack.is_file() else su.read_text(encoding="utf-8")
+    frames = {m.group(1): int(m.group(2)) for m in re.finditer(r":\d+:\d+:(\w+)\t(\d+)", usage)}
+    step = frames.get(f"{t.ir.module}_step", -1)
+    detail = (
+        f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}, binary64 in software: text {text} B, data {data} B, bss {bss} B; "
+        f"stack: {t.ir.module}_step's own frame {step} B, every frame summed {sum(frames.values())} B (a bound on "
+        "any call chain: there is no recursion)"
+    )
+    return CheckOutcome("cortex-m4", True, detail, data={"text": text, "data": data, "bss": bss, "stack": frames})
+
+
+def cppcheck(t: DataTarget) -> CheckOutcome:
+    return cppcheck_file(t.layout.c_source, t.build)
+
+
+DATA_CHECKS = {
+    "cppcheck": cppcheck,
+    "compile": compile_and_load,
+    "exhaustive": exhaustive,
+    "sequences": sequences,
+    "cortex-m4": cross_build,
+    "sanitizers": sanitizers,
+}

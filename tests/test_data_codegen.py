@@ -1,0 +1,139 @@
+"""Generated code of machines with data: MLCA-T's Python and C agree bit for bit with each other and with z3's
+semantics of the spec, a planted off-by-one in both languages is caught, hostile spec text stays in comments
+and strings, and the embedding examples build for the host and the Cortex-M4."""
+
+from __future__ import annotations
+
+import ast
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mlca_verify.codegen import generate
+from mlca_verify.conform import conform
+from mlca_verify.spec import load_spec
+from mlca_verify.targets import import_generated
+from mlca_verify.tools import C_FLAGS
+from tests.conftest import ROOT
+
+GENERATED = ROOT / "generated"
+SPEC = ROOT / "spec" / "mlca_t.toml"
+
+
+def _module() -> object:
+    return import_generated(GENERATED / "python" / "mlca_t_fsm.py", "_test_mlca_t_fsm")
+
+
+def _inputs(py: object, **changes: object) -> object:
+    values = {
+        "N": True,
+        "U": False,
+        "v": 25.0,
+        "gap_lead_left": 1000.0,
+        "gap_follow_left": 80.0,
+        "v_follow_left": 27.0,
+        "gap_lead_right": 1000.0,
+        "gap_follow_right": 1000.0,
+        "v_follow_right": 0.0,
+    }
+    values.update(changes)
+    return py.Inputs(**values)  # type: ignore[attr-defined]
+
+
+def test_generated_python_defers_then_moves_and_fails_safe_on_nan() -> None:
+    py = _module()
+    ctx = py.Context()  # type: ignore[attr-defined]
+    modes = []
+    for _ in range(22):
+        py.step(ctx, _inputs(py))  # type: ignore[attr-defined]
+        modes.append(py.State(ctx.mode).name)  # type: ignore[attr-defined]
+    t_min = py.DEFAULT_PARAMS.T_MIN  # type: ignore[attr-defined]
+    assert modes[:t_min] == ["WAITING"] * t_min  # deferred for T_MIN steps
+    assert modes[t_min] == "MOVING_LEFT"
+    out = py.step(ctx, _inputs(py, v_follow_left=math.nan))  # type: ignore[attr-defined]
+    assert py.State(ctx.mode).name == "IDLE" and out.command == 0  # type: ignore[attr-defined]
+
+
+def test_boolean_machines_keep_their_generated_api() -> None:
+    spec = load_spec(ROOT / "spec" / "mlca_r.toml", compare=False)
+    for rel, text in generate(spec, GENERATED).items():
+        assert (GENERATED / rel).read_text() == text
+        assert "_ctx_t" not in text and "Context" not in text
+
+
+@pytest.mark.slow
+def test_conformance_of_mlca_t_passes() -> None:
+    outcomes = conform(
+        load_spec(SPEC, compare=False),
+        GENERATED,
+        ["exhaustive", "sequences", "sanitizers", "cortex-m4"],
+        lambda _: None,
+    ).outcomes
+    assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
+    by_name = {o.name: o for o in outcomes}
+    assert by_name["exhaustive"].data["steps"] > 10_000
+    assert by_name["cortex-m4"].data["data"] == 0 and by_name["cortex-m4"].data["bss"] == 0
+
+
+@pytest.mark.slow
+def test_an_off_by_one_in_both_languages_is_caught_by_the_spec(tmp_path: Path) -> None:
+    """Python and C agree with each other here; only the comparison with z3's semantics can catch it."""
+    copy = tmp_path / "generated"
+    shutil.copytree(GENERATED, copy)
+    for rel, old, new in (
+        ("c/mlca_t_fsm.c", "(c->waited < p->T_MIN)", "(c->waited <= p->T_MIN)"),
+        ("python/mlca_t_fsm.py", "(c.waited < p.T_MIN)", "(c.waited <= p.T_MIN)"),
+    ):
+        text = (copy / rel).read_text()
+        assert old in text
+        (copy / rel).write_text(text.replace(old, new))
+    outcomes = conform(load_spec(SPEC, compare=False), copy, ["exhaustive"], lambda _: None).outcomes
+    exhaustive = next(o for o in outcomes if o.name == "exhaustive")
+    assert not exhaustive.ok and "the spec (z3)" in exhaustive.detail
+
+
+def test_hostile_text_in_a_data_spec_stays_in_comments_and_strings(tmp_path: Path) -> None:
+    text = SPEC.read_text().replace(
+        'doc = "the AV\'s speed"', 'doc = "*/ int evil; /* \\"\\"\\" import os #\\n\\u0000 ??="'
+    )
+    spec_file = tmp_path / "mlca_t.toml"
+    spec_file.write_text(text)
+    files = generate(load_spec(spec_file, compare=False), tmp_path / "generated")
+    ast.parse(files["python/mlca_t_fsm.py"])
+    out = tmp_path / "generated"
+    for rel, body in files.items():
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_text(body)
+    done = subprocess.run(
+        ["gcc", *C_FLAGS, "-c", "-o", str(tmp_path / "x.o"), str(out / "c" / "mlca_t_fsm.c")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert (
+        "int evil"
+        not in subprocess.run(
+            ["gcc", "-E", "-P", str(out / "c" / "mlca_t_fsm.c")], capture_output=True, text=True, check=True
+        ).stdout
+    )
+
+
+def test_embedding_examples_build_and_run(tmp_path: Path) -> None:
+    main_c = ROOT / "docs" / "examples" / "mlca_t_main.c"
+    fsm_c = GENERATED / "c" / "mlca_t_fsm.c"
+    host = tmp_path / "fw"
+    cc = ["gcc", *C_FLAGS, f"-I{GENERATED / 'c'}", "-o", str(host), str(main_c), str(fsm_c)]
+    subprocess.run(cc, check=True)
+    assert subprocess.run([str(host)], check=False).returncode == 0
+    arm = ["arm-none-eabi-gcc", *C_FLAGS, "-mcpu=cortex-m4", "-mthumb", "-Os", "--specs=nosys.specs"]
+    subprocess.run([*arm, f"-I{GENERATED / 'c'}", "-o", str(tmp_path / "fw.elf"), str(main_c), str(fsm_c)], check=True)
+    loop = subprocess.run(
+        [sys.executable, str(ROOT / "docs" / "examples" / "mlca_t_loop.py")], capture_output=True, text=True, check=True
+    )
+    assert "tick 25: MOVING_LEFT  command +1" in loop.stdout
+    assert "tick 30: IDLE         command +0" in loop.stdout
