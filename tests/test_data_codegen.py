@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -13,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from mlca_verify.cli import main
 from mlca_verify.codegen import generate
 from mlca_verify.conform import conform
 from mlca_verify.spec import load_spec
@@ -137,3 +139,22 @@ def test_embedding_examples_build_and_run(tmp_path: Path) -> None:
     )
     assert "tick 25: MOVING_LEFT  command +1" in loop.stdout
     assert "tick 30: IDLE         command +0" in loop.stdout
+
+
+def test_emitted_tests_are_red_on_the_buggy_code_and_green_on_the_repaired(tmp_path: Path) -> None:
+    """The planted fast timer: its counterexample (with its signals and T_MIN = 3) becomes a pytest and a C test
+    that fail on the code generated from the buggy spec and pass on MLCA-T's."""
+    fixture = ROOT / "tests" / "fixtures" / "mlca_t_fast_timer.toml"
+    buggy, out = tmp_path / "buggy", tmp_path / "emitted"
+    assert main(["gen", str(fixture), "--out", str(buggy)]) == 0
+    assert main(["check", str(fixture), "--quiet", "--emit-tests", str(out), "--generated", str(buggy)]) == 1
+    test_py, test_c = out / "test_mlca_t_deferral.py", out / "test_mlca_t_deferral.c"
+    pytest_cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(test_py)]
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False).returncode == 1
+    env = {**os.environ, "MLCA_T_FSM": str(GENERATED / "python" / "mlca_t_fsm.py")}
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False, env=env).returncode == 0
+    for folder, expected in ((buggy / "c", 1), (GENERATED / "c", 0)):
+        exe = tmp_path / f"t{expected}"
+        cc = ["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{folder}", "-o", str(exe), str(test_c)]
+        subprocess.run([*cc, str(folder / "mlca_t_fsm.c")], check=True)
+        assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == expected

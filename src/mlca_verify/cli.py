@@ -113,7 +113,6 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-NO_DATA_TESTS = "emitted tests for machines with data (params, signals, variables) are not available yet"
 NO_DATA_LOOP = "the closed loop does not run the generated code of machines with data yet"
 
 
@@ -175,9 +174,6 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
     for spec, results in checked:
-        if spec.machine.has_data:
-            say(f"{spec.path}: no tests emitted: {NO_DATA_TESTS}")
-            continue
         if spec.machine.semantics != "first-match":
             say(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
             continue

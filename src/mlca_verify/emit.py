@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
-from mlca_verify.codegen.render import c_ident, render_template
+from mlca_verify.codegen.data_ir import DataIR, build_data_ir
+from mlca_verify.codegen.lower import real_literal
+from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Expr, Liveness, Machine, show
@@ -83,12 +86,78 @@ def c_test(spec: LoadedSpec, r: Replay) -> str:
     return _render("emitted_test.c.j2", spec, r)
 
 
+def _value_py(value: object) -> str:
+    return repr(value) if not isinstance(value, float) else real_literal(Fraction(value))
+
+
+def _value_c(value: object, ctype: str) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if ctype == "double" and isinstance(value, int | float | Fraction):
+        return real_literal(Fraction(value))
+    return str(value)
+
+
+def data_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[str, str] | None:
+    """A pytest and a C test replaying a violated invariant or range check of a machine with data, with every
+    signal and param value of its counterexample; None for the other checks."""
+    cx = result.counterexample
+    m = spec.machine
+    if cx is None or result.verdict != "violated" or result.kind not in ("invariant", "range"):
+        return None
+    ctypes = {f.name: f.ctype for f in (*_ir(spec).signals, *_ir(spec).params)}
+    steps = [{**s.inputs, **s.signals} for s in cx.steps]
+    names = [*m.input_names, *(sig.name for sig in m.signals)]
+    values: dict[str, object] = {
+        "spec_path": spec.path,
+        "sha256": spec.sha256,
+        "machine": m.name,
+        "module": m.name.lower(),
+        "macro": m.name.upper(),
+        "prop": result.prop,
+        "kind": result.kind,
+        "summary": result.detail,
+        "env_var": f"{m.name.upper()}_FSM",
+        "module_path": module_path,
+        "test_name": c_ident(result.prop),
+        "steps": [Escaped("{" + ", ".join(f"{n!r}: {_value_py(step[n])}" for n in names) + "}") for step in steps],
+        "c_steps": [
+            Escaped(", ".join(f".{n} = {_value_c(step[n], ctypes.get(n, 'bool'))}" for n in names)) for step in steps
+        ],
+        "params": Escaped("{" + ", ".join(f"{k!r}: {_value_py(v)}" for k, v in cx.params.items()) + "}"),
+        "c_params": Escaped(", ".join(_value_c(cx.params[p.name], ctypes[p.name]) for p in m.params) or "0"),
+        "index": next((k for k, inv in enumerate(m.invariants) if inv.id == result.prop), 0),
+    }
+    if result.kind == "range":
+        variable = next(v for v in m.variables if f"range:{v.name}" == result.prop)
+        assert variable.range is not None
+        kind = "double" if variable.type == "real" else "int"
+        values.update(
+            variable=variable.name,
+            low=Escaped(_value_c(variable.range[0] if kind == "double" else int(variable.range[0]), kind)),
+            high=Escaped(_value_c(variable.range[1] if kind == "double" else int(variable.range[1]), kind)),
+        )
+    return render_template("data_emitted_test.py.j2", **values), render_template("data_emitted_test.c.j2", **values)
+
+
+def _ir(spec: LoadedSpec) -> DataIR:
+    return build_data_ir(spec.machine, spec.machine.name.lower(), spec.path, spec.sha256, "mlca-verify")
+
+
 def emit(spec: LoadedSpec, results: list[Result], generated: Path, out: Path) -> list[Path]:
     """Write the tests for every replayable violation of `spec`; return the files written."""
     out.mkdir(parents=True, exist_ok=True)
     written = []
     module = spec.machine.name.lower()
     for result in results:
+        if spec.machine.has_data:
+            tests = data_tests(spec, result, _module_path(spec, generated, out))
+            if tests is not None:
+                stem = f"test_{module}_{c_ident(result.prop)}"
+                for suffix, text in zip((".py", ".c"), tests, strict=True):
+                    write_atomic(out / f"{stem}{suffix}", text)
+                    written.append(out / f"{stem}{suffix}")
+            continue
         r = replay_of(spec.machine, result)
         if r is None:
             continue
