@@ -1,10 +1,19 @@
-"""Benchmark the generated C step against hand-written references of the same machine (Alg. 1).
+"""Benchmark the generated C step against hand-written references of the same machine (Alg. 1, then MLCA-T).
 
 Run on demand: `.venv/bin/python bench/bench_codegen.py [--steps N]`. Prints, side by side in one run:
 - instructions per step on x86-64 (gcc -O2), counted by `valgrind --tool=callgrind` inside the step function
   only, over the same fixed input sequence for every candidate (instruction counts are repeatable, unlike time);
 - Cortex-M4 .text bytes of the step function (arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -Os);
 and the ratio generated / best hand-written reference. Target: both ratios at most 1.0.
+
+MLCA-T (spec/mlca_t.toml, the whole decision function: L and R over gap and speed signals, the waiting timer)
+compares the generated mlca_t_step with bench/reference/mlca_t_hand.c (gcc -O2 -ffp-contract=off). One driver,
+written here, runs both in lockstep over a fixed pseudo-random sequence (splitmix64, fixed seed; mostly valid
+samples, some boundary, out-of-range, NaN and infinite ones; N and U toggling; four valid param sets; a corrupted
+mode now and then) and stops at the first step where their outputs or contexts differ. Its Cortex-M4 .text is
+that of the step and every function it calls (a link from the step with --gc-sections, libgcc's soft-float
+helpers left out), since the generated object also holds the monitor and the param check; the whole object's
+.text is printed too.
 """
 
 from __future__ import annotations
@@ -61,6 +70,232 @@ def text_bytes(function: str, source: Path, work: Path) -> int:
     return int(re.search(rf"^[0-9a-f]+ ([0-9a-f]+) T {function}$", symbols, re.MULTILINE).group(1), 16)  # type: ignore[union-attr]
 
 
+MLCA_T_SEED = 0x4D4C43412D54  # "MLCA-T"
+MLCA_T_CANDIDATES = {
+    "generated mlca_t_step": ("mlca_t_step", GENERATED / "mlca_t_fsm.c"),
+    "hand-written mlca_t_hand_step": ("mlca_t_hand_step", REFERENCE / "mlca_t_hand.c"),
+}
+MLCA_T_DRIVER = r"""
+/* Runs mlca_t_step and mlca_t_hand_step in lockstep over STEPS fixed pseudo-random inputs and stops (exit 1) at
+ * the first step where their outputs or contexts differ. Written by bench/bench_codegen.py. */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include "mlca_t_fsm.h"
+#include "mlca_t_hand.h"
+
+static uint64_t rng = SEED;
+
+static uint64_t next(void) /* splitmix64 */
+{
+    uint64_t z = (rng += UINT64_C(0x9E3779B97F4A7C15));
+    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
+    return z ^ (z >> 31);
+}
+
+static int one_in(unsigned n) { return (next() % n) == 0u; }
+
+static double uniform(double hi) { return (double)(next() >> 11) * 0x1.0p-53 * hi; }
+
+static unsigned long odd_samples = 0u;
+
+/* Mostly a valid sample in [0, hi]; one in 24 a boundary, out-of-range, NaN or infinite one. */
+static double sample(double hi)
+{
+    if (!one_in(24u)) {
+        return uniform(hi);
+    }
+    odd_samples += 1u;
+    switch (next() % 10u) {
+    case 0u: return 0.0;
+    case 1u: return -0.0;
+    case 2u: return hi;
+    case 3u: return hi * (1.0 + 0x1.0p-52); /* just above the range */
+    case 4u: return -0x1.0p-1074; /* just below it */
+    case 5u: return NAN;
+    case 6u: return INFINITY;
+    case 7u: return -INFINITY;
+    case 8u: return 3.0; /* MIN_GAP's default */
+    default: return 2.0 * hi + uniform(hi);
+    }
+}
+
+typedef struct { double lead, follow, v_follow; } lane_t;
+
+static void new_lane(lane_t *l, double v, const mlca_t_params_t *p)
+{
+    l->lead = sample(1000.0);
+    l->follow = sample(1000.0);
+    l->v_follow = sample(70.0);
+    if (one_in(16u)) { /* on a threshold of L or R */
+        const double closing = l->v_follow - v;
+        switch (next() % 3u) {
+        case 0u: l->lead = p->TIME_GAP * v; break;
+        case 1u: l->follow = p->TIME_GAP * l->v_follow; break;
+        default: l->follow = (closing * closing) / (2.0 * p->FOLLOWER_DECEL); break;
+        }
+    }
+}
+
+static const mlca_t_params_t PARAMS[4] = {
+    {20, 1.0, 3.0, 4.0}, /* the defaults */
+    {1, 0.5, 1.0, 9.0},
+    {100, 3.0, 10.0, 1.0},
+    {7, 1.7, 5.5, 2.5},
+};
+
+static int same(const mlca_t_ctx_t *a, const mlca_t_ctx_t *b, const mlca_t_outputs_t *oa,
+    const mlca_t_outputs_t *ob)
+{
+    return a->mode == b->mode && a->waited == b->waited && a->need_age == b->need_age && a->prev0 == b->prev0
+        && a->first == b->first && oa->command == ob->command;
+}
+
+int main(void)
+{
+    static const char *const names[4] = {"IDLE", "WAITING", "MOVING_LEFT", "MOVING_RIGHT"};
+    unsigned long k, visits[4] = {0u, 0u, 0u, 0u}, changes[4][4] = {{0u}};
+    unsigned long corrupted = 0u, waited_max = 0u, need_age_max = 0u;
+    long long command_sum = 0;
+    unsigned m, n;
+    mlca_t_ctx_t cg, ch;
+    mlca_t_outputs_t og = {0}, oh = {0};
+    mlca_t_inputs_t in = {false, false, 0.0, 1000.0, 1000.0, 0.0, 1000.0, 1000.0, 0.0};
+    lane_t left, right;
+    mlca_t_init(&cg);
+    mlca_t_hand_init(&ch);
+    if (!same(&cg, &ch, &og, &oh)) {
+        fprintf(stderr, "the initial contexts differ\n");
+        return 1;
+    }
+    for (k = 0u; k < STEPS; ++k) {
+        const mlca_t_params_t *p = &PARAMS[(k >> 16) & 3u];
+        const unsigned before = (unsigned)cg.mode;
+        const int calm = ((k >> 14) & 7u) == 7u; /* one block in 8: long needs over slow traffic, timers saturate */
+        if (one_in(calm ? 4096u : 48u)) { /* the need comes and goes, urgency within it */
+            in.N = !in.N;
+        }
+        in.U = in.N ? (in.U != one_in(32u)) : one_in(256u); /* now and then U without N (outside the assumption) */
+        if (one_in(calm ? 512u : 16u)) {
+            in.v = sample(70.0);
+        }
+        if (one_in(calm ? 512u : 12u)) {
+            new_lane(&left, in.v, p);
+            in.gap_lead_left = left.lead;
+            in.gap_follow_left = left.follow;
+            in.v_follow_left = left.v_follow;
+        }
+        if (one_in(calm ? 512u : 12u)) {
+            new_lane(&right, in.v, p);
+            in.gap_lead_right = right.lead;
+            in.gap_follow_right = right.follow;
+            in.v_follow_right = right.v_follow;
+        }
+        if ((k & 0xFFFFu) == 0xFFFFu) { /* a corrupted mode starts again from init */
+            cg.mode = ch.mode = (mlca_t_state_t)(4u + (unsigned)(k >> 16) % 3u);
+            corrupted += 1u;
+        }
+        mlca_t_step(&cg, &in, p, &og);
+        mlca_t_hand_step(&ch, &in, p, &oh);
+        if (!same(&cg, &ch, &og, &oh)) {
+            fprintf(stderr,
+                "step %lu: generated (mode %d, waited %d, need_age %d, prev0 %d, first %d, command %lld) != "
+                "hand-written (mode %d, waited %d, need_age %d, prev0 %d, first %d, command %lld)\n",
+                k, (int)cg.mode, (int)cg.waited, (int)cg.need_age, (int)cg.prev0, (int)cg.first,
+                (long long)og.command, (int)ch.mode, (int)ch.waited, (int)ch.need_age, (int)ch.prev0,
+                (int)ch.first, (long long)oh.command);
+            return 1;
+        }
+        visits[(unsigned)cg.mode & 3u] += 1u;
+        changes[before & 3u][(unsigned)cg.mode & 3u] += 1u;
+        command_sum += (long long)og.command;
+        waited_max += (cg.waited == 1000) ? 1u : 0u;
+        need_age_max += (cg.need_age == 1000) ? 1u : 0u;
+    }
+    printf("mode visits IDLE %lu, WAITING %lu, MOVING_LEFT %lu, MOVING_RIGHT %lu; command sum %lld\n",
+        visits[0], visits[1], visits[2], visits[3], command_sum);
+    printf("mode changes");
+    for (m = 0u; m < 4u; ++m) {
+        for (n = 0u; n < 4u; ++n) {
+            if (m != n && changes[m][n] != 0u) {
+                printf(" %s->%s %lu", names[m], names[n], changes[m][n]);
+            }
+        }
+    }
+    printf("\nodd samples %lu, corrupted modes reset %lu, steps with waited at 1000 %lu, need_age at 1000 %lu\n",
+        odd_samples, corrupted, waited_max, need_age_max);
+    return 0;
+}
+"""
+
+
+def mlca_t_driver(steps: int, work: Path) -> tuple[Path, str]:
+    """Build the lockstep driver over both candidates and run it once natively: the trajectory, or abort."""
+    source = work / "drive_mlca_t.c"
+    source.write_text(MLCA_T_DRIVER)
+    exe = work / "drive_mlca_t"
+    sh("gcc", "-std=c99", "-O2", "-ffp-contract=off", f"-I{GENERATED}", f"-I{REFERENCE}",
+       f"-DSEED=UINT64_C({MLCA_T_SEED:#x})", f"-DSTEPS={steps}ul", "-o", str(exe), str(source),
+       *(str(src) for _, src in MLCA_T_CANDIDATES.values()))  # fmt: skip
+    done = subprocess.run([str(exe)], capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"MLCA-T: the generated and the hand-written step disagree, benchmark aborted:\n{done.stderr}")
+    return exe, done.stdout.strip()
+
+
+def mlca_t_instructions(function: str, exe: Path, steps: int, work: Path) -> tuple[float, str]:
+    out_file = work / f"callgrind.{function}"
+    done = subprocess.run(
+        ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out_file}", f"--toggle-collect={function}", str(exe)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if done.returncode != 0:
+        raise SystemExit(f"MLCA-T: the run under callgrind failed, benchmark aborted:\n{done.stderr}")
+    total = int(re.search(r"Collected : (\d+)", done.stderr).group(1))  # type: ignore[union-attr]
+    return total / steps, done.stdout.strip()
+
+
+def mlca_t_text_bytes(function: str, source: Path, work: Path) -> tuple[int, int]:
+    """Cortex-M4 .text of the step with every function it calls, and of the whole object."""
+    obj = work / f"{function}.arm.o"
+    elf = work / f"{function}.arm.elf"
+    sh("arm-none-eabi-gcc", "-std=c99", "-mcpu=cortex-m4", "-mthumb", "-Os", "-ffp-contract=off",
+       "-ffunction-sections", "-fdata-sections", f"-I{GENERATED}", f"-I{REFERENCE}", "-c", "-o", str(obj),
+       str(source))  # fmt: skip
+    sh("arm-none-eabi-gcc", "-mcpu=cortex-m4", "-mthumb", "-nostdlib", "-Wl,--gc-sections", f"-Wl,-e,{function}",
+       "-Wl,--unresolved-symbols=ignore-all", "-o", str(elf), str(obj))  # fmt: skip
+
+    def text(path: Path) -> int:
+        sections = re.findall(r"^(\.text\S*)\s+(\d+)", sh("arm-none-eabi-size", "-A", str(path)), re.MULTILINE)
+        return sum(int(size) for _, size in sections)
+
+    return text(elf), text(obj)
+
+
+def mlca_t_section(steps: int) -> None:
+    rows = {}
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder)
+        exe, trajectory = mlca_t_driver(steps, work)
+        for label, (function, source) in MLCA_T_CANDIDATES.items():
+            per_step, replay = mlca_t_instructions(function, exe, steps, work)
+            assert replay == trajectory, f"the run under callgrind differs from the native one: {replay}"
+            rows[label] = (per_step, *mlca_t_text_bytes(function, source, work))
+    print(f"\nMLCA-T (spec/mlca_t.toml): {steps} steps, generated and hand-written in lockstep, identical outputs")
+    print("and contexts at every step (gcc -O2 -ffp-contract=off)")
+    print(trajectory + "\n")
+    print(f"{'candidate':30} {'instructions/step':>18} {'Cortex-M4 .text B':>18} {'whole .o .text B':>18}")
+    for label, (per_step, size, whole) in rows.items():
+        print(f"{label:30} {per_step:18.2f} {size:18d} {whole:18d}")
+    gen, hand = rows["generated mlca_t_step"], rows["hand-written mlca_t_hand_step"]
+    print(f"\nratio generated / hand-written: instructions {gen[0] / hand[0]:.3f}, .text {gen[1] / hand[1]:.3f}")
+    print("(.text: the step and the functions it calls, libgcc's soft-float helpers left out)")
+    print("target: both at most 1.0")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--steps", type=int, default=1_000_000, help="steps of the fixed input sequence")
@@ -84,6 +319,7 @@ def main() -> None:
         f"\nratio generated / best hand-written: instructions {gen[0] / best_ins:.3f}, .text {gen[1] / best_text:.3f}"
     )
     print("target: both at most 1.0")
+    mlca_t_section(args.steps)
 
 
 if __name__ == "__main__":
