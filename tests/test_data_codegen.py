@@ -158,3 +158,21 @@ def test_emitted_tests_are_red_on_the_buggy_code_and_green_on_the_repaired(tmp_p
         cc = ["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{folder}", "-o", str(exe), str(test_c)]
         subprocess.run([*cc, str(folder / "mlca_t_fsm.c")], check=True)
         assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == expected
+
+
+def test_one_rule_over_different_signals_is_generated_once() -> None:
+    from mlca_verify.codegen.shapes import shared_shapes
+
+    machine = load_spec(SPEC, compare=False).machine
+    shapes, uses = shared_shapes(machine)
+    assert {name: use.shape for name, use in uses.items()} == {
+        "closing_left": 0,
+        "closing_right": 0,
+        "L": 1,
+        "R": 1,
+    }
+    assert uses["L"].signals == ("gap_lead_left", "v", "gap_follow_left", "v_follow_left")
+    assert "W" not in uses  # it reads a variable and an input: not a rule over samples
+    c = (GENERATED / "c" / "mlca_t_fsm.c").read_text()
+    assert c.count("static bool mlca_t_shape1(") == 1
+    assert "mlca_t_shape1(i->gap_lead_right, i->v, i->gap_follow_right, i->v_follow_right, p)" in c

@@ -27,22 +27,11 @@ bool mlca_t_params_valid(const mlca_t_params_t *p)
     return ok;
 }
 
-/* closing_left: v_follow_left - v (Sec. III-B 'L (Left Side Empty)') */
-static double mlca_t_def_closing_left(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
+/* One rule for L, R: s__0 >= max(MIN_GAP, TIME_GAP * s__1) and s__2 >= max(MIN_GAP, TIME_GAP * s__3) and (s__3 - s__1 <= 0 or (s__3 - s__1) * (s__3 - s__1) <= 2 * FOLLOWER_DECEL * s__2) */
+static bool mlca_t_shape1(double s__0, double s__1, double s__2, double s__3, const mlca_t_params_t *p)
 {
-    (void)c;
-    (void)i;
     (void)p;
-    return (i->v_follow_left - i->v);
-}
-
-/* closing_right: v_follow_right - v (Sec. III-B 'R (Right Side Empty)') */
-static double mlca_t_def_closing_right(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
-{
-    (void)c;
-    (void)i;
-    (void)p;
-    return (i->v_follow_right - i->v);
+    return ((((0.0 <= s__0) && (s__0 <= 1000.0)) && ((0.0 <= s__1) && (s__1 <= 70.0)) && ((0.0 <= s__2) && (s__2 <= 1000.0)) && ((0.0 <= s__3) && (s__3 <= 70.0))) ? (((s__0 >= mlca_t_max_d(p->MIN_GAP, (p->TIME_GAP * s__1))) && (s__2 >= mlca_t_max_d(p->MIN_GAP, (p->TIME_GAP * s__3)))) && (((s__3 - s__1) <= 0.0) || (((s__3 - s__1) * (s__3 - s__1)) <= ((2.0 * p->FOLLOWER_DECEL) * s__2)))) : false);
 }
 
 /* L: gap_lead_left >= max(MIN_GAP, TIME_GAP * v) and gap_follow_left >= max(MIN_GAP, TIME_GAP * v_follow_left) and (closing_left <= 0 or closing_left * closing_left <= 2 * FOLLOWER_DECEL * gap_follow_left) (Alg. 1 Require; Sec. III-B 'L (Left Side Empty)') */
@@ -51,7 +40,7 @@ static bool mlca_t_def_L(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
     (void)c;
     (void)i;
     (void)p;
-    return ((((0.0 <= i->gap_follow_left) && (i->gap_follow_left <= 1000.0)) && ((0.0 <= i->gap_lead_left) && (i->gap_lead_left <= 1000.0)) && ((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->v_follow_left) && (i->v_follow_left <= 70.0))) ? (((i->gap_lead_left >= mlca_t_max_d(p->MIN_GAP, (p->TIME_GAP * i->v))) && (i->gap_follow_left >= mlca_t_max_d(p->MIN_GAP, (p->TIME_GAP * i->v_follow_left)))) && ((mlca_t_def_closing_left(c, i, p) <= 0.0) || ((mlca_t_def_closing_left(c, i, p) * mlca_t_def_closing_left(c, i, p)) <= ((2.0 * p->FOLLOWER_DECEL) * i->gap_follow_left)))) : false);
+    return mlca_t_shape1(i->gap_lead_left, i->v, i->gap_follow_left, i->v_follow_left, p);
 }
 
 /* R: gap_lead_right >= max(MIN_GAP, TIME_GAP * v) and gap_follow_right >= max(MIN_GAP, TIME_GAP * v_follow_right) and (closing_right <= 0 or closing_right * closing_right <= 2 * FOLLOWER_DECEL * gap_follow_right) (Alg. 1 Require; Sec. III-B 'R (Right Side Empty)') */
@@ -60,7 +49,7 @@ static bool mlca_t_def_R(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
     (void)c;
     (void)i;
     (void)p;
-    return ((((0.0 <= i->gap_follow_right) && (i->gap_follow_right <= 1000.0)) && ((0.0 <= i->gap_lead_right) && (i->gap_lead_right <= 1000.0)) && ((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->v_follow_right) && (i->v_follow_right <= 70.0))) ? (((i->gap_lead_right >= mlca_t_max_d(p->MIN_GAP, (p->TIME_GAP * i->v))) && (i->gap_follow_right >= mlca_t_max_d(p->MIN_GAP, (p->TIME_GAP * i->v_follow_right)))) && ((mlca_t_def_closing_right(c, i, p) <= 0.0) || ((mlca_t_def_closing_right(c, i, p) * mlca_t_def_closing_right(c, i, p)) <= ((2.0 * p->FOLLOWER_DECEL) * i->gap_follow_right)))) : false);
+    return mlca_t_shape1(i->gap_lead_right, i->v, i->gap_follow_right, i->v_follow_right, p);
 }
 
 /* W: not U and waited < T_MIN (Sec. III-B 'W (Can Wait)'; Fig. 1 caption ('waiting timeout')) */

@@ -125,24 +125,19 @@ def _div(a: float, b: float) -> float:
     return math.copysign(math.inf, a) * math.copysign(1.0, b)
 
 
-def _def_closing_left(c: Context, i: Inputs, p: Params) -> float:
-    """closing_left: v_follow_left - v (Sec. III-B 'L (Left Side Empty)')"""
-    return (i.v_follow_left - i.v)
-
-
-def _def_closing_right(c: Context, i: Inputs, p: Params) -> float:
-    """closing_right: v_follow_right - v (Sec. III-B 'R (Right Side Empty)')"""
-    return (i.v_follow_right - i.v)
+def _shape1(s__0: float, s__1: float, s__2: float, s__3: float, p: Params) -> bool:
+    """One rule for L, R: s__0 >= max(MIN_GAP, TIME_GAP * s__1) and s__2 >= max(MIN_GAP, TIME_GAP * s__3) and (s__3 - s__1 <= 0 or (s__3 - s__1) * (s__3 - s__1) <= 2 * FOLLOWER_DECEL * s__2)"""
+    return ((((s__0 >= _max(p.MIN_GAP, (p.TIME_GAP * s__1))) and (s__2 >= _max(p.MIN_GAP, (p.TIME_GAP * s__3)))) and (((s__3 - s__1) <= 0.0) or (((s__3 - s__1) * (s__3 - s__1)) <= ((2.0 * p.FOLLOWER_DECEL) * s__2)))) if (((0.0 <= s__0) and (s__0 <= 1000.0)) and ((0.0 <= s__1) and (s__1 <= 70.0)) and ((0.0 <= s__2) and (s__2 <= 1000.0)) and ((0.0 <= s__3) and (s__3 <= 70.0))) else False)
 
 
 def _def_L(c: Context, i: Inputs, p: Params) -> bool:
     """L: gap_lead_left >= max(MIN_GAP, TIME_GAP * v) and gap_follow_left >= max(MIN_GAP, TIME_GAP * v_follow_left) and (closing_left <= 0 or closing_left * closing_left <= 2 * FOLLOWER_DECEL * gap_follow_left) (Alg. 1 Require; Sec. III-B 'L (Left Side Empty)')"""
-    return ((((i.gap_lead_left >= _max(p.MIN_GAP, (p.TIME_GAP * i.v))) and (i.gap_follow_left >= _max(p.MIN_GAP, (p.TIME_GAP * i.v_follow_left)))) and ((_def_closing_left(c, i, p) <= 0.0) or ((_def_closing_left(c, i, p) * _def_closing_left(c, i, p)) <= ((2.0 * p.FOLLOWER_DECEL) * i.gap_follow_left)))) if (((0.0 <= i.gap_follow_left) and (i.gap_follow_left <= 1000.0)) and ((0.0 <= i.gap_lead_left) and (i.gap_lead_left <= 1000.0)) and ((0.0 <= i.v) and (i.v <= 70.0)) and ((0.0 <= i.v_follow_left) and (i.v_follow_left <= 70.0))) else False)
+    return _shape1(i.gap_lead_left, i.v, i.gap_follow_left, i.v_follow_left, p)
 
 
 def _def_R(c: Context, i: Inputs, p: Params) -> bool:
     """R: gap_lead_right >= max(MIN_GAP, TIME_GAP * v) and gap_follow_right >= max(MIN_GAP, TIME_GAP * v_follow_right) and (closing_right <= 0 or closing_right * closing_right <= 2 * FOLLOWER_DECEL * gap_follow_right) (Alg. 1 Require; Sec. III-B 'R (Right Side Empty)')"""
-    return ((((i.gap_lead_right >= _max(p.MIN_GAP, (p.TIME_GAP * i.v))) and (i.gap_follow_right >= _max(p.MIN_GAP, (p.TIME_GAP * i.v_follow_right)))) and ((_def_closing_right(c, i, p) <= 0.0) or ((_def_closing_right(c, i, p) * _def_closing_right(c, i, p)) <= ((2.0 * p.FOLLOWER_DECEL) * i.gap_follow_right)))) if (((0.0 <= i.gap_follow_right) and (i.gap_follow_right <= 1000.0)) and ((0.0 <= i.gap_lead_right) and (i.gap_lead_right <= 1000.0)) and ((0.0 <= i.v) and (i.v <= 70.0)) and ((0.0 <= i.v_follow_right) and (i.v_follow_right <= 70.0))) else False)
+    return _shape1(i.gap_lead_right, i.v, i.gap_follow_right, i.v_follow_right, p)
 
 
 def _def_W(c: Context, i: Inputs, p: Params) -> bool:

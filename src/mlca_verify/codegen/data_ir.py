@@ -7,7 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 
-from mlca_verify.codegen.lower import Lowering, c_type, names_of, real_literal
+from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_literal
+from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import Expr, Machine, Prev, Type, Var, nodes, show
 
@@ -42,6 +43,18 @@ class Definition:
     code: Code
     doc: str
     cite: str
+
+
+@dataclass(frozen=True)
+class SharedShape:
+    """One function for definitions that are the same rule over different samples."""
+
+    index: int
+    ctype: str
+    pytype: str
+    args: tuple[tuple[str, str, str], ...]  # name, C type, Python type
+    code: Code
+    users: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -110,6 +123,8 @@ class DataIR:
     invariants: tuple[Property, ...]
     transitions: tuple[tuple[int, str, str], ...] = field(default_factory=tuple)  # number, id, target
     helpers: frozenset[str] = frozenset()  # the C helpers the code calls: min_d, max_i, div, ...
+    shapes: tuple[SharedShape, ...] = ()
+    used: frozenset[str] = frozenset()  # the definitions whose functions the code calls
 
 
 PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
@@ -159,6 +174,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         text = real_literal(v) if kind == "real" else str(int(v))
         return Code(text, text, str(v))
 
+    shapes, uses = shared_shapes(m)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
     cases = tuple(
         Case(
@@ -196,7 +212,8 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
         params=tuple(number_field(p, p.type, p.range, default=value(p.default, p.type)) for p in m.params),
         variables=tuple(number_field(v, v.type, v.range, default=value(v.initial, v.type)) for v in m.variables),
-        definitions=tuple(_definition(d, c, py) for d in m.definitions),
+        definitions=tuple(_definition(d, c, py, uses.get(d.name)) for d in m.definitions),
+        shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
             Definition(o.name, c_type(o.type), PY_TYPES[o.type], typed(o.expr, o.type), o.doc, o.cite)
             for o in m.outputs
@@ -209,22 +226,56 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
     )
-    return replace(ir, helpers=frozenset(h for h in HELPERS if f"{module}_{h}(" in repr(ir)))
+    text = repr(replace(ir, definitions=()))
+    used: set[str] = set()
+    todo = [d.name for d in ir.definitions if f"{module}_def_{d.name}(" in text]
+    while todo:  # a called definition's body may call others
+        name = todo.pop()
+        if name not in used:
+            used.add(name)
+            body = next(d.code.c for d in ir.definitions if d.name == name)
+            todo += [d.name for d in ir.definitions if f"{module}_def_{d.name}(" in body]
+    helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in repr(ir))
+    kept = tuple(sh for sh in ir.shapes if set(sh.users) & used)
+    return replace(ir, helpers=helpers, used=frozenset(used), shapes=kept)
 
 
 HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
 
 
-def _definition(d: object, c: Lowering, py: Lowering) -> Definition:
+def _gated(body_c: str, body_py: str, valid: tuple[list[str], list[str]], if_invalid: bool) -> tuple[str, str]:
+    """A boolean that reads samples: its `if_invalid` value unless every one is valid (tested first)."""
+    fallback_c, fallback_py = ("true", "True") if if_invalid else ("false", "False")
+    valid_c, valid_py = " && ".join(valid[0]), " and ".join(valid[1])
+    return f"(({valid_c}) ? {body_c} : {fallback_c})", f"({body_py} if ({valid_py}) else {fallback_py})"
+
+
+def _definition(d: object, c: Lowering, py: Lowering, use: Use | None) -> Definition:
     from mlca_verify.model import Definition as Spec
 
     assert isinstance(d, Spec)
+    if use is not None:
+        call_c = f"{c.n.prefix}_shape{use.shape}(" + ", ".join(f"i->{s}" for s in use.signals) + ", p)"
+        call_py = f"_shape{use.shape}(" + ", ".join(f"i.{s}" for s in use.signals) + ", p)"
+        return Definition(d.name, c_type(d.type), PY_TYPES[d.type], Code(call_c, call_py, show(d.expr)), d.doc, d.cite)
     body_c, body_py = c.as_type(d.expr, d.type, None), py.as_type(d.expr, d.type, None)
     if d.type == "bool" and d.signals:
-        valid_c = " && ".join(c.valid(s) for s in d.signals)
-        valid_py = " and ".join(py.valid(s) for s in d.signals)
-        fallback_c = "true" if d.if_invalid else "false"
-        fallback_py = "True" if d.if_invalid else "False"
-        body_c = f"(({valid_c}) ? {body_c} : {fallback_c})"
-        body_py = f"({body_py} if ({valid_py}) else {fallback_py})"
+        valid = ([c.valid(s) for s in d.signals], [py.valid(s) for s in d.signals])
+        body_c, body_py = _gated(body_c, body_py, valid, d.if_invalid)
     return Definition(d.name, c_type(d.type), PY_TYPES[d.type], Code(body_c, body_py, show(d.expr)), d.doc, d.cite)
+
+
+def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
+    kinds = {**names.kinds, **{a: "arg" for a, _, _ in sh.args}}
+    types = {**names.types, **{a: kind for a, kind, _ in sh.args}}
+    ranges = {**names.ranges, **{a: bounds for a, _, bounds in sh.args}}
+    view = replace(names, kinds=kinds, types=types, ranges=ranges)
+    c, py = Lowering(view, "c"), Lowering(view, "py")
+    body_c, body_py = c.as_type(sh.expr, sh.kind, None), py.as_type(sh.expr, sh.kind, None)
+    if sh.guarded:
+        valid = ([c.valid(a) for a, _, _ in sh.args], [py.valid(a) for a, _, _ in sh.args])
+        body_c, body_py = _gated(body_c, body_py, valid, sh.if_invalid)
+    args = tuple((a, c_type(kind, bounds), PY_TYPES[kind]) for a, kind, bounds in sh.args)
+    users = tuple(sorted(name for name, use in uses.items() if use.shape == sh.index))
+    code = Code(body_c, body_py, show(sh.expr))
+    return SharedShape(sh.index, c_type(sh.kind), PY_TYPES[sh.kind], args, code, users)

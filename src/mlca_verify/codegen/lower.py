@@ -216,6 +216,8 @@ class Lowering:
             return f"p->{name}" if c else f"p.{name}"
         if kind == "variable":
             return f"c->{name}" if c else f"c.{name}"
+        if kind == "arg":  # an argument of a shared shape (see `shapes`)
+            return name
         if kind == "definition":
             return f"{self.n.prefix}_def_{name}(c, i, p)" if c else f"_def_{name}(c, i, p)"
         return f"o->{name}" if c else f"o.{name}"
