@@ -165,6 +165,7 @@ def test_one_rule_over_different_signals_is_generated_once() -> None:
 
     machine = load_spec(SPEC, compare=False).machine
     shapes, uses = shared_shapes(machine)
+    assert len(shapes) == 2
     assert {name: use.shape for name, use in uses.items()} == {
         "closing_left": 0,
         "closing_right": 0,
