@@ -133,6 +133,26 @@ def nodes(expr: Expr) -> Iterator[Expr]:
         todo.extend(children(node))
 
 
+def type_of(expr: Expr, types: Mapping[str, Type]) -> Type:
+    """The type of an expression, as the loader checked it; `types` gives each name's (a name not in it is a
+    boolean input)."""
+    if isinstance(expr, Const | StateIn | Not | BinOp | Cmp):
+        return "bool"
+    if isinstance(expr, Num):
+        return "real" if expr.real or expr.value.denominator != 1 else "int"
+    if isinstance(expr, Var):
+        return types.get(expr.name, "bool")
+    if isinstance(expr, Call) and expr.fn == "valid":
+        return "bool"
+    if isinstance(expr, Prev):
+        return type_of(expr.arg, types)
+    if isinstance(expr, Arith) and expr.op == "/":
+        return "real"
+    operands = (expr.then, expr.other) if isinstance(expr, Ite) else children(expr)
+    kinds = {type_of(c, types) for c in operands}
+    return "real" if "real" in kinds else "bool" if kinds == {"bool"} else "int"
+
+
 def names_of(expr: Expr) -> frozenset[str]:
     """Every name an expression reads (not counting states)."""
     return frozenset(n.name for n in nodes(expr) if isinstance(n, Var))

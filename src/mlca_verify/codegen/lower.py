@@ -30,6 +30,7 @@ from mlca_verify.model import (
     StateIn,
     Type,
     Var,
+    type_of,
 )
 
 INT_LIMIT = 2**31 - 1
@@ -88,25 +89,7 @@ class Lowering:
         self.lang = lang
 
     def type_of(self, e: Expr) -> Type:
-        if isinstance(e, Const | StateIn | Not | BinOp | Cmp):
-            return "bool"
-        if isinstance(e, Num):
-            return "real" if e.real or e.value.denominator != 1 else "int"
-        if isinstance(e, Var):
-            return self.n.types[e.name]
-        if isinstance(e, Call) and e.fn == "valid":
-            return "bool"
-        if isinstance(e, Prev):
-            return self.type_of(e.arg)
-        if isinstance(e, Arith) and e.op == "/":
-            return "real"
-        parts = [e.then, e.other] if isinstance(e, Ite) else list(e.args) if isinstance(e, Call) else []
-        if isinstance(e, Arith):
-            parts = [e.left, e.right]
-        if isinstance(e, Neg):
-            parts = [e.arg]
-        kinds = {self.type_of(x) for x in parts}
-        return "real" if "real" in kinds else "bool" if kinds == {"bool"} else "int"
+        return type_of(e, self.n.types)
 
     # --- text ----------------------------------------------------------------------------------------
 

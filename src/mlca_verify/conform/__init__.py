@@ -46,6 +46,24 @@ def _up_to_date(spec: LoadedSpec, generated: Path, template_dir: Path | None) ->
     return CheckOutcome("up-to-date", True, f"{', '.join(sorted(files))} match the spec (sha256 {spec.sha256[:12]}...)")
 
 
+def _present(
+    spec: LoadedSpec,
+    generated: Path,
+    module: str,
+    template_dir: Path | None,
+    report: Callable[[CheckOutcome], None],
+) -> tuple[Layout, CheckOutcome]:
+    """The generated files of `spec` (refused when one is missing), and whether they are up to date (reported)."""
+    layout = Layout(generated.resolve(), module)
+    for path in layout.missing():
+        raise UsageError(
+            f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
+        )
+    fresh = _up_to_date(spec, generated, template_dir)
+    report(fresh)
+    return layout, fresh
+
+
 def conform(
     spec: LoadedSpec,
     generated: Path,
@@ -59,13 +77,7 @@ def conform(
     if spec.machine.has_data:
         return _conform_data(spec, generated, checks, report, sequences=sequences, template_dir=template_dir)
     ir = machine_ir(spec, generated)
-    layout = Layout(generated.resolve(), ir.module)
-    for path in layout.missing():
-        raise UsageError(
-            f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
-        )
-    fresh = _up_to_date(spec, generated, template_dir)
-    report(fresh)
+    layout, fresh = _present(spec, generated, ir.module, template_dir, report)
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
         target = Target(spec, ir, layout, Path(build), sequences)
         outcomes = run_checks(target, checks, report)
@@ -82,13 +94,7 @@ def _conform_data(
     template_dir: Path | None,
 ) -> Conformance:
     ir = data_ir(spec, generated)
-    layout = Layout(generated.resolve(), ir.module)
-    for path in layout.missing():
-        raise UsageError(
-            f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
-        )
-    fresh = _up_to_date(spec, generated, template_dir)
-    report(fresh)
+    layout, fresh = _present(spec, generated, ir.module, template_dir, report)
     outcomes: list[CheckOutcome] = []
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
         target = DataTarget(spec.machine, ir, layout, Path(build), sequences)

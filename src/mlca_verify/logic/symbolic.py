@@ -38,6 +38,7 @@ from mlca_verify.model import (
     Type,
     Var,
     nodes,
+    type_of,
 )
 
 
@@ -143,6 +144,7 @@ class System:
         self.kinds.update({s.name: s.type for s in machine.signals})
         self.kinds.update({d.name: d.type for d in machine.definitions})
         self.outputs = {o.name: o for o in machine.outputs}
+        self.kinds.update({o.name: o.type for o in machine.outputs})
         self.shared_params = {p.name: z3.Const(f"param!{p.name}", sort_of(p.type)) for p in machine.params}
         self.prev_types = [self.type_of(p.arg) for p in self.prevs]
         self._template: tuple[Frame, StepInputs, Frame, z3.BoolRef, StepTerms] | None = None
@@ -299,23 +301,7 @@ class System:
         return term
 
     def type_of(self, expr: Expr) -> Type:
-        """The type of an expression, as the loader checked it."""
-        if isinstance(expr, Const | StateIn | Not | BinOp | Cmp):
-            return "bool"
-        if isinstance(expr, Num):
-            return "real" if expr.real or expr.value.denominator != 1 else "int"
-        if isinstance(expr, Var):
-            if expr.name in self.outputs:
-                return self.outputs[expr.name].type
-            return self.kinds.get(expr.name, "bool")
-        if isinstance(expr, Call) and expr.fn == "valid":
-            return "bool"
-        if isinstance(expr, Prev):
-            return self.type_of(expr.arg)
-        if isinstance(expr, Arith) and expr.op == "/":
-            return "real"
-        kinds = {self.type_of(c) for c in _operands(expr)}
-        return "real" if "real" in kinds else "bool" if kinds == {"bool"} else "int"
+        return type_of(expr, self.kinds)
 
     def valid(self, name: str, v: Valuation) -> z3.BoolRef:
         low, high = self.signals[name].range
@@ -425,18 +411,6 @@ def substitution(pairs: list[tuple[z3.ExprRef, z3.ExprRef]]) -> Callable[[z3.Exp
         return _to_expr_ref(z3.z3core.Z3_substitute(ctx.ref(), term.as_ast(), count, sources, targets), ctx)
 
     return apply
-
-
-def _operands(expr: Expr) -> list[Expr]:
-    if isinstance(expr, Ite):
-        return [expr.then, expr.other]
-    if isinstance(expr, Call):
-        return list(expr.args)
-    if isinstance(expr, Arith):
-        return [expr.left, expr.right]
-    if isinstance(expr, Neg):
-        return [expr.arg]
-    return []
 
 
 def input_only(machine: Machine) -> frozenset[str]:
