@@ -177,3 +177,46 @@ def test_one_rule_over_different_signals_is_generated_once() -> None:
     c = (GENERATED / "c" / "mlca_t_fsm.c").read_text()
     assert c.count("static bool mlca_t_shape1(") == 1
     assert "mlca_t_shape1(i->gap_lead_right, i->v, i->gap_follow_right, i->v_follow_right, p)" in c
+
+
+SMALL = """
+[machine]
+name = "Pump"
+initial = "OFF"
+states = ["OFF", "ON"]
+
+[inputs]
+start = { doc = "start pressed" }
+
+[signals]
+level = { type = "int", unit = "cm", range = [0, 50], doc = "water level" }
+
+[variables]
+run = { type = "int", initial = 0, range = [0, 9], unit = "step", every = "min(run + 1, 9)", doc = "steps on" }
+
+[definitions]
+dry = { expr = "level < 5", if_invalid = true, doc = "too little water to pump" }
+
+[[transition]]
+from = "OFF"
+to = "ON"
+when = "start and not dry"
+do = "run = 0"
+
+[[transition]]
+from = "ON"
+to = "OFF"
+when = "dry or run >= 9"
+"""
+
+
+@pytest.mark.slow
+def test_a_machine_without_params_outputs_or_invariants_generates_clean_code(tmp_path: Path) -> None:
+    """No params, no outputs, no invariants, an int signal: the code still compiles without a warning, passes
+    cppcheck's MISRA addon, and agrees with the spec."""
+    spec = tmp_path / "pump.toml"
+    spec.write_text(SMALL)
+    assert main(["gen", str(spec), "--out", str(tmp_path / "generated")]) == 0
+    checks = ["compile", "exhaustive", "sequences", "sanitizers", "cppcheck", "cortex-m4"]
+    outcomes = conform(load_spec(spec, compare=False), tmp_path / "generated", checks, lambda _: None).outcomes
+    assert all(o.ok for o in outcomes), [(o.name, o.detail[:300]) for o in outcomes if not o.ok]

@@ -203,11 +203,14 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
 }
 
 void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const mlca_t_inputs_t *i,
-    const mlca_t_params_t *p, const mlca_t_outputs_t *o, bool failing[MLCA_T_INVARIANTS + 1])
+    const mlca_t_params_t *p, const mlca_t_outputs_t *o, bool failing[MLCA_T_FAILING])
 {
     const mlca_t_ctx_t *c = after;
     const bool prev0 = before->first ? mlca_t_reg0(before, i, p) : before->prev0;
     (void)before;
+    (void)after;
+    (void)i;
+    (void)p;
     (void)o;
     failing[0] = !((c->mode == MLCA_T_IDLE) || (c->mode == MLCA_T_WAITING) || (c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT)); /* A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1)) */
     failing[1] = !((!(!i->N)) || (c->mode == MLCA_T_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */

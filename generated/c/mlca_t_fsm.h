@@ -22,6 +22,7 @@ typedef enum {
 
 #define MLCA_T_INITIAL MLCA_T_IDLE
 #define MLCA_T_INVARIANTS 9
+#define MLCA_T_FAILING 10 /* the monitor's array: one per invariant, and a last one that stays false */
 
 /* The inputs of one step: booleans, then signals (a sample outside its range, NaN or an infinity is invalid). */
 typedef struct {
@@ -73,6 +74,6 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
 
 /* The runtime monitor: failing[k] is true when invariant k fails after the step from before to after. */
 void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const mlca_t_inputs_t *i,
-    const mlca_t_params_t *p, const mlca_t_outputs_t *o, bool failing[MLCA_T_INVARIANTS + 1]);
+    const mlca_t_params_t *p, const mlca_t_outputs_t *o, bool failing[MLCA_T_FAILING]);
 
 #endif /* MLCA_T_FSM_H */
