@@ -4,7 +4,7 @@
 #      paper's other two readings;
 #   2. generate the Python and C99 code of the three deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
-#      the Cortex-M4 cross build, sanitizers; MLCA-T's bit for bit against z3's semantics, without WP yet);
+#      the Cortex-M4 cross build, sanitizers; MLCA-T's bit for bit against z3's semantics, its WP without the monitor);
 #   4. run the paper's comparison closed loop in SUMO on a short version of its scenario: both generated C
 #      controllers and every comparison model, one and three AVs, two seeds each (out/sim.sqlite; runs already
 #      there are kept), and draw it beside the paper's figures (out/comparison/report.md);

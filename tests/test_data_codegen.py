@@ -72,13 +72,15 @@ def test_conformance_of_mlca_t_passes() -> None:
     outcomes = conform(
         load_spec(SPEC, compare=False),
         GENERATED,
-        ["exhaustive", "sequences", "sanitizers", "cortex-m4"],
+        ["exhaustive", "sequences", "sanitizers", "cortex-m4", "frama-c-wp"],
         lambda _: None,
     ).outcomes
     assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
     by_name = {o.name: o for o in outcomes}
     assert by_name["exhaustive"].data["steps"] > 10_000
     assert by_name["cortex-m4"].data["data"] == 0 and by_name["cortex-m4"].data["bss"] == 0
+    wp = by_name["frama-c-wp"].data
+    assert wp["proved"] == wp["goals"] > 400
 
 
 @pytest.mark.slow

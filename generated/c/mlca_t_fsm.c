@@ -13,9 +13,16 @@ const mlca_t_params_t mlca_t_DEFAULT_PARAMS = {
 
 /* Helpers that behave as the generated Python's: min and max keep the running result unless the next argument
  * is smaller (larger); division is IEEE 754's. */
+/*@ assigns \nothing; */
 static double mlca_t_max_d(double r, double a) { return (a > r) ? a : r; }
+/*@ assigns \nothing;
+  @ ensures \result == ((a < r) ? a : r);
+  @*/
 static int64_t mlca_t_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
 
+/*@ requires \valid_read(p);
+  @ assigns \nothing;
+  @*/
 bool mlca_t_params_valid(const mlca_t_params_t *p)
 {
     bool ok = true;
@@ -28,6 +35,9 @@ bool mlca_t_params_valid(const mlca_t_params_t *p)
 }
 
 /* One rule for L, R: s__0 >= max(MIN_GAP, TIME_GAP * s__1) and s__2 >= max(MIN_GAP, TIME_GAP * s__3) and (s__3 - s__1 <= 0 or (s__3 - s__1) * (s__3 - s__1) <= 2 * FOLLOWER_DECEL * s__2) */
+/*@ requires \valid_read(p);
+  @ assigns \nothing;
+  @*/
 static bool mlca_t_shape1(double s__0, double s__1, double s__2, double s__3, const mlca_t_params_t *p)
 {
     (void)p;
@@ -35,6 +45,9 @@ static bool mlca_t_shape1(double s__0, double s__1, double s__2, double s__3, co
 }
 
 /* L: gap_lead_left >= max(MIN_GAP, TIME_GAP * v) and gap_follow_left >= max(MIN_GAP, TIME_GAP * v_follow_left) and (closing_left <= 0 or closing_left * closing_left <= 2 * FOLLOWER_DECEL * gap_follow_left) (Alg. 1 Require; Sec. III-B 'L (Left Side Empty)') */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+  @ assigns \nothing;
+  @*/
 static bool mlca_t_def_L(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
     (void)c;
@@ -44,6 +57,9 @@ static bool mlca_t_def_L(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 }
 
 /* R: gap_lead_right >= max(MIN_GAP, TIME_GAP * v) and gap_follow_right >= max(MIN_GAP, TIME_GAP * v_follow_right) and (closing_right <= 0 or closing_right * closing_right <= 2 * FOLLOWER_DECEL * gap_follow_right) (Alg. 1 Require; Sec. III-B 'R (Right Side Empty)') */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+  @ assigns \nothing;
+  @*/
 static bool mlca_t_def_R(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
     (void)c;
@@ -53,6 +69,9 @@ static bool mlca_t_def_R(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 }
 
 /* W: not U and waited < T_MIN (Sec. III-B 'W (Can Wait)'; Fig. 1 caption ('waiting timeout')) */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+  @ assigns \nothing;
+  @*/
 static bool mlca_t_def_W(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
     (void)c;
@@ -62,6 +81,9 @@ static bool mlca_t_def_W(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 }
 
 /* prev0: state in {IDLE, WAITING} */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+  @ assigns \nothing;
+  @*/
 static bool mlca_t_reg0(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
     (void)c;
@@ -70,6 +92,9 @@ static bool mlca_t_reg0(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const m
     return ((c->mode == MLCA_T_IDLE) || (c->mode == MLCA_T_WAITING));
 }
 
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && \valid(o) && \separated(o, c, i, p);
+  @ assigns *o;
+  @*/
 static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p, mlca_t_outputs_t *o)
 {
     (void)c;
@@ -78,6 +103,10 @@ static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, cons
     o->command = ((c->mode == MLCA_T_MOVING_LEFT) ? INT64_C(1) : ((c->mode == MLCA_T_MOVING_RIGHT) ? INT64_C(-1) : INT64_C(0))); /* if state == MOVING_LEFT then 1 else if state == MOVING_RIGHT then -1 else 0 (Alg. 1, l.11-14 (MOVING_LEFT, MOVING_RIGHT)) */
 }
 
+/*@ requires \valid(c);
+  @ assigns *c;
+  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL;
+  @*/
 static void mlca_t_reset(mlca_t_ctx_t *c)
 {
     c->mode = MLCA_T_INITIAL;
@@ -87,12 +116,21 @@ static void mlca_t_reset(mlca_t_ctx_t *c)
     c->first = true;
 }
 
+/*@ requires \valid(c);
+  @ assigns *c;
+  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL;
+  @*/
 void mlca_t_init(mlca_t_ctx_t *c)
 {
     mlca_t_reset(c);
 }
 
 /* The first enabled transition of the mode, by its number in the spec (0: none, -1: the mode is not a state). */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+  @ assigns \nothing;
+  @ ensures -1 <= \result <= 8;
+  @ ensures \result == -1 <==> !(c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT);
+  @*/
 static int mlca_t_fired(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
     int fired = 0;
@@ -152,6 +190,14 @@ static int mlca_t_fired(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const m
     return fired;
 }
 
+/* Proved by Frama-C WP (`mlca-verify conform`, check frama-c-wp): no runtime error, and from a context whose
+ * variables are in their ranges (the spec's range: checks prove every reachable one is), the step keeps them in
+ * range and leaves the mode a state. */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && \valid(c) && \valid(o) && \separated(c, o, i, p) && \separated(o, i, p);
+  @ assigns *c, *o;
+  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true;
+  @ ensures c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT;
+  @*/
 void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p, mlca_t_outputs_t *o)
 {
     const int fired = mlca_t_fired(c, i, p);
@@ -202,6 +248,10 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
     *c = next;
 }
 
+/*@ requires \valid_read(before) && \valid_read(i) && \valid_read(p) && 0 <= before->waited <= 1000 && 0 <= before->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && 0 <= after->waited <= 1000 && 0 <= after->need_age <= 1000 && \true && \valid_read(after) && \valid_read(o);
+  @ requires \valid(failing + (0 .. MLCA_T_INVARIANTS)) && \separated(failing + (0 .. MLCA_T_INVARIANTS), before, after, i, p, o);
+  @ assigns failing[0 .. MLCA_T_INVARIANTS];
+  @*/
 void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const mlca_t_inputs_t *i,
     const mlca_t_params_t *p, const mlca_t_outputs_t *o, bool failing[MLCA_T_FAILING])
 {
@@ -212,14 +262,23 @@ void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const
     (void)i;
     (void)p;
     (void)o;
-    failing[0] = !((c->mode == MLCA_T_IDLE) || (c->mode == MLCA_T_WAITING) || (c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT)); /* A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1)) */
-    failing[1] = !((!(!i->N)) || (c->mode == MLCA_T_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
-    failing[2] = !((!(c->mode == MLCA_T_MOVING_LEFT)) || (i->N && mlca_t_def_L(c, i, p))); /* A3: state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3)) */
-    failing[3] = !((!(c->mode == MLCA_T_MOVING_RIGHT)) || (i->N && mlca_t_def_R(c, i, p))); /* A4: state == MOVING_RIGHT -> N and R (Alg. 1, l.32 (Assert 4)) */
-    failing[4] = !((!((prev0 && ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))) && (!i->U))) || (c->need_age > p->T_MIN)); /* deferral: prev(state in {IDLE, WAITING}) and state in {MOVING_LEFT, MOVING_RIGHT} and not U -> need_age > T_MIN (Abstract ('defers non-safety-critical lane changes'); Fig. 1 caption ('waiting timeout')) */
-    failing[5] = !((!(((prev0 && i->N) && i->U) && (mlca_t_def_L(c, i, p) || mlca_t_def_R(c, i, p)))) || ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))); /* urgent-first-safe-step: prev(state in {IDLE, WAITING}) and N and U and (L or R) -> state in {MOVING_LEFT, MOVING_RIGHT} (Sec. III-B 'W (Can Wait)': a critical lane change is not deferred) */
-    failing[6] = !(((o->command != INT64_C(0)) == ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))) && ((o->command == INT64_C(1)) == (c->mode == MLCA_T_MOVING_LEFT))); /* command-only-when-moving: (command != 0 <-> state in {MOVING_LEFT, MOVING_RIGHT}) and (command == 1 <-> state == MOVING_LEFT) (Alg. 1, l.11-14) */
-    failing[7] = !((!(!(((((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->gap_lead_left) && (i->gap_lead_left <= 1000.0))) && ((0.0 <= i->gap_follow_left) && (i->gap_follow_left <= 1000.0))) && ((0.0 <= i->v_follow_left) && (i->v_follow_left <= 70.0))))) || ((!mlca_t_def_L(c, i, p)) && (!(c->mode == MLCA_T_MOVING_LEFT)))); /* fail-safe-left: not (valid(v) and valid(gap_lead_left) and valid(gap_follow_left) and valid(v_follow_left)) -> not L and not state == MOVING_LEFT (Sec. III-B 'L (Left Side Empty)': an unknown gap is not a safe gap) */
-    failing[8] = !((!(!(((((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->gap_lead_right) && (i->gap_lead_right <= 1000.0))) && ((0.0 <= i->gap_follow_right) && (i->gap_follow_right <= 1000.0))) && ((0.0 <= i->v_follow_right) && (i->v_follow_right <= 70.0))))) || ((!mlca_t_def_R(c, i, p)) && (!(c->mode == MLCA_T_MOVING_RIGHT)))); /* fail-safe-right: not (valid(v) and valid(gap_lead_right) and valid(gap_follow_right) and valid(v_follow_right)) -> not R and not state == MOVING_RIGHT (Sec. III-B 'R (Right Side Empty)': an unknown gap is not a safe gap) */
+    const bool holds0 = ((c->mode == MLCA_T_IDLE) || (c->mode == MLCA_T_WAITING) || (c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT)); /* A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1)) */
+    const bool holds1 = ((!(!i->N)) || (c->mode == MLCA_T_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
+    const bool holds2 = ((!(c->mode == MLCA_T_MOVING_LEFT)) || (i->N && mlca_t_def_L(c, i, p))); /* A3: state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3)) */
+    const bool holds3 = ((!(c->mode == MLCA_T_MOVING_RIGHT)) || (i->N && mlca_t_def_R(c, i, p))); /* A4: state == MOVING_RIGHT -> N and R (Alg. 1, l.32 (Assert 4)) */
+    const bool holds4 = ((!((prev0 && ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))) && (!i->U))) || (c->need_age > p->T_MIN)); /* deferral: prev(state in {IDLE, WAITING}) and state in {MOVING_LEFT, MOVING_RIGHT} and not U -> need_age > T_MIN (Abstract ('defers non-safety-critical lane changes'); Fig. 1 caption ('waiting timeout')) */
+    const bool holds5 = ((!(((prev0 && i->N) && i->U) && (mlca_t_def_L(c, i, p) || mlca_t_def_R(c, i, p)))) || ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))); /* urgent-first-safe-step: prev(state in {IDLE, WAITING}) and N and U and (L or R) -> state in {MOVING_LEFT, MOVING_RIGHT} (Sec. III-B 'W (Can Wait)': a critical lane change is not deferred) */
+    const bool holds6 = (((o->command != INT64_C(0)) == ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))) && ((o->command == INT64_C(1)) == (c->mode == MLCA_T_MOVING_LEFT))); /* command-only-when-moving: (command != 0 <-> state in {MOVING_LEFT, MOVING_RIGHT}) and (command == 1 <-> state == MOVING_LEFT) (Alg. 1, l.11-14) */
+    const bool holds7 = ((!(!(((((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->gap_lead_left) && (i->gap_lead_left <= 1000.0))) && ((0.0 <= i->gap_follow_left) && (i->gap_follow_left <= 1000.0))) && ((0.0 <= i->v_follow_left) && (i->v_follow_left <= 70.0))))) || ((!mlca_t_def_L(c, i, p)) && (!(c->mode == MLCA_T_MOVING_LEFT)))); /* fail-safe-left: not (valid(v) and valid(gap_lead_left) and valid(gap_follow_left) and valid(v_follow_left)) -> not L and not state == MOVING_LEFT (Sec. III-B 'L (Left Side Empty)': an unknown gap is not a safe gap) */
+    const bool holds8 = ((!(!(((((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->gap_lead_right) && (i->gap_lead_right <= 1000.0))) && ((0.0 <= i->gap_follow_right) && (i->gap_follow_right <= 1000.0))) && ((0.0 <= i->v_follow_right) && (i->v_follow_right <= 70.0))))) || ((!mlca_t_def_R(c, i, p)) && (!(c->mode == MLCA_T_MOVING_RIGHT)))); /* fail-safe-right: not (valid(v) and valid(gap_lead_right) and valid(gap_follow_right) and valid(v_follow_right)) -> not R and not state == MOVING_RIGHT (Sec. III-B 'R (Right Side Empty)': an unknown gap is not a safe gap) */
+    failing[0] = !holds0;
+    failing[1] = !holds1;
+    failing[2] = !holds2;
+    failing[3] = !holds3;
+    failing[4] = !holds4;
+    failing[5] = !holds5;
+    failing[6] = !holds6;
+    failing[7] = !holds7;
+    failing[8] = !holds8;
     failing[MLCA_T_INVARIANTS] = false;
 }

@@ -16,7 +16,7 @@ import random
 import re
 import struct
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from pathlib import Path
 from types import ModuleType
@@ -26,7 +26,7 @@ import z3
 
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import render_template
-from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file
+from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
 from mlca_verify.logic.symbolic import System, value_of
 from mlca_verify.model import Machine, Type
 from mlca_verify.targets import Layout, import_generated
@@ -421,11 +421,25 @@ def cross_build(t: DataTarget) -> CheckOutcome:
     return CheckOutcome("cortex-m4", True, detail, data={"text": text, "data": data, "bss": bss, "stack": frames})
 
 
+def frama_c(t: DataTarget) -> CheckOutcome:
+    """WP: no runtime error (integer overflow included), variables kept in range, the mode a state. The IEEE 754
+    special values are allowed (-warn-special-float none): NaN and the infinities are inputs the code handles by
+    design, never read by a decision (the validity gate comes first)."""
+    monitor = f"{t.ir.module}_monitor"
+    outcome = wp_file(t.layout.c_source, t.build, ("-warn-special-float", "none", "-wp-skip-fct", monitor))
+    note = (
+        f"; {monitor} is not proved (WP times out on its memory accesses) and is covered by the exhaustive and "
+        "sequence checks instead"
+    )
+    return replace(outcome, detail=outcome.detail + note)
+
+
 def cppcheck(t: DataTarget) -> CheckOutcome:
     return cppcheck_file(t.layout.c_source, t.build)
 
 
 DATA_CHECKS = {
+    "frama-c-wp": frama_c,
     "cppcheck": cppcheck,
     "compile": compile_and_load,
     "exhaustive": exhaustive,
