@@ -153,6 +153,11 @@ def type_of(expr: Expr, types: Mapping[str, Type]) -> Type:
     return "real" if "real" in kinds else "bool" if kinds == {"bool"} else "int"
 
 
+def prevs_of(*exprs: Expr) -> tuple[Prev, ...]:
+    """The distinct prev() nodes of the expressions, in the order first met (each is one register of the frame)."""
+    return tuple(dict.fromkeys(n for e in exprs for n in nodes(e) if isinstance(n, Prev)))
+
+
 def names_of(expr: Expr) -> frozenset[str]:
     """Every name an expression reads (not counting states)."""
     return frozenset(n.name for n in nodes(expr) if isinstance(n, Var))

@@ -10,7 +10,8 @@ from fractions import Fraction
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_literal
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.errors import CodegenError
-from mlca_verify.model import Expr, Machine, Prev, Type, Var, nodes, show
+from mlca_verify.model import Definition as SpecDefinition
+from mlca_verify.model import Expr, Machine, Type, Var, nodes, prevs_of, show
 
 
 @dataclass(frozen=True)
@@ -130,25 +131,22 @@ class DataIR:
 PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
 
 
-def _bounds_code(low: Fraction, high: Fraction, kind: Type) -> tuple[Code, Code]:
-    def one(v: Fraction) -> Code:
-        text = real_literal(v) if kind == "real" else str(int(v))
-        return Code(text, text, str(v))
-
-    return one(low), one(high)
+def _literal(v: Fraction, kind: Type) -> Code:
+    """A constant of the spec (a default, a range end) as both languages write it."""
+    text = real_literal(v) if kind == "real" else str(int(v))
+    return Code(text, text, str(v))
 
 
 def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> DataIR:
     macro = module.upper()
     names = names_of(m, module, macro)
     c, py = Lowering(names, "c"), Lowering(names, "py")
-    prevs: dict[Prev, int] = {}
     for inv in m.invariants:
-        for n in nodes(inv.expr):
-            if isinstance(n, Prev) and n not in prevs:
-                if any(isinstance(x, Var) and names.kinds[x.name] == "output" for x in nodes(n.arg)):
-                    raise CodegenError(f"{inv.loc}: error: prev() of an output is not generated yet")
-                prevs[n] = len(prevs)
+        if any(
+            isinstance(x, Var) and names.kinds[x.name] == "output" for p in prevs_of(inv.expr) for x in nodes(p.arg)
+        ):
+            raise CodegenError(f"{inv.loc}: error: prev() of an output is not generated yet")
+    prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
     c_prev = {p: f"prev{k}" for p, k in prevs.items()}
 
     def code(e: Expr, with_prev: bool = False) -> Code:
@@ -158,7 +156,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         return Code(c.as_type(e, kind, None), py.as_type(e, kind, None), show(e))
 
     def number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
-        low, high = _bounds_code(*bounds, kind) if bounds is not None else (None, None)
+        low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
         return Field(
             item.name,  # type: ignore[attr-defined]
             c_type(kind, bounds),
@@ -169,10 +167,6 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             high=high,
             **extra,  # type: ignore[arg-type]
         )
-
-    def value(v: Fraction, kind: Type) -> Code:
-        text = real_literal(v) if kind == "real" else str(int(v))
-        return Code(text, text, str(v))
 
     shapes, uses = shared_shapes(m)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
@@ -210,8 +204,8 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         states=m.states,
         inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
         signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
-        params=tuple(number_field(p, p.type, p.range, default=value(p.default, p.type)) for p in m.params),
-        variables=tuple(number_field(v, v.type, v.range, default=value(v.initial, v.type)) for v in m.variables),
+        params=tuple(number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
+        variables=tuple(number_field(v, v.type, v.range, default=_literal(v.initial, v.type)) for v in m.variables),
         definitions=tuple(_definition(d, c, py, uses.get(d.name)) for d in m.definitions),
         shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
@@ -250,10 +244,7 @@ def _gated(body_c: str, body_py: str, valid: tuple[list[str], list[str]], if_inv
     return f"(({valid_c}) ? {body_c} : {fallback_c})", f"({body_py} if ({valid_py}) else {fallback_py})"
 
 
-def _definition(d: object, c: Lowering, py: Lowering, use: Use | None) -> Definition:
-    from mlca_verify.model import Definition as Spec
-
-    assert isinstance(d, Spec)
+def _definition(d: SpecDefinition, c: Lowering, py: Lowering, use: Use | None) -> Definition:
     if use is not None:
         call_c = f"{c.n.prefix}_shape{use.shape}(" + ", ".join(f"i->{s}" for s in use.signals) + ", p)"
         call_py = f"_shape{use.shape}(" + ", ".join(f"i.{s}" for s in use.signals) + ", p)"

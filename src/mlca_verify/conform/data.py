@@ -28,7 +28,7 @@ from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
 from mlca_verify.logic.symbolic import System, value_of
-from mlca_verify.model import Machine, Type
+from mlca_verify.model import Machine, Type, prevs_of
 from mlca_verify.targets import Layout, import_generated
 from mlca_verify.tools import C_FLAGS, run
 
@@ -208,8 +208,7 @@ class Semantics:
 
     def __init__(self, machine: Machine) -> None:
         self.m = machine
-        prevs = [p for inv in machine.invariants for p in _prevs(inv.expr)]
-        self.system = System(machine, list(dict.fromkeys(prevs)))
+        self.system = System(machine, prevs_of(*(inv.expr for inv in machine.invariants)))
         self.pre, self.inputs, self.post = self.system.frame("s0"), self.system.inputs("s0"), self.system.frame("s1")
         self.link, self.terms = self.system.step(self.pre, self.inputs, self.post)
         self.solver = z3.Solver()
@@ -242,12 +241,6 @@ class Semantics:
         variables = [_from_z3(model.eval(self.post.variables[v.name], model_completion=True)) for v in m.variables]
         outputs = [_from_z3(model.eval(t, model_completion=True)) for t in s.outputs_at(self.terms.post).values()]
         return mode, variables, outputs
-
-
-def _prevs(expr: Any) -> list[Any]:
-    from mlca_verify.model import Prev, nodes
-
-    return [n for n in nodes(expr) if isinstance(n, Prev)]
 
 
 def _z3_value(value: object, kind: Type, bounds: tuple[Fraction, Fraction] | None) -> z3.ExprRef:

@@ -13,9 +13,7 @@ import z3
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
 from mlca_verify.logic.symbolic import Frame, Monitor, StepInputs, StepTerms, System, Valuation, input_only, value_of
-from mlca_verify.model import Arith, Call, Expr, Invariant, Liveness, Machine, Num, Prev, Var, Verdict, nodes
-
-Predicate = Callable[[System, StepTerms], z3.BoolRef]
+from mlca_verify.model import Arith, Call, Expr, Invariant, Liveness, Machine, Num, Prev, Var, Verdict, nodes, prevs_of
 
 
 def _number(term: z3.ExprRef) -> Number:
@@ -29,10 +27,6 @@ def _number(term: z3.ExprRef) -> Number:
     if z3.is_algebraic_value(term):
         return float(term.approx(20).as_fraction())
     return 0
-
-
-def _prevs(*exprs: Expr) -> list[Prev]:
-    return [n for e in exprs for n in nodes(e) if isinstance(n, Prev)]
 
 
 def _reads_validity(*exprs: Expr) -> bool:
@@ -73,7 +67,7 @@ class DataChecker:
         m = self.m
         if total and m.otherwise == "undefined":
             m = replace(m, otherwise="stay")
-        prevs = tuple(dict.fromkeys(_prevs(*exprs, *(e for c in monitors for e in (c.assume, c.goal)))))
+        prevs = prevs_of(*exprs, *(e for c in monitors for e in (c.assume, c.goal)))
         abstract = frozenset() if _reads_validity(*exprs) else self.abstractable
         return self.system(m, prevs, monitors, abstract, parametric), self.system(
             m, prevs, monitors, frozenset(), parametric

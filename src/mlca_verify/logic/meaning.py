@@ -12,7 +12,7 @@ from typing import Literal
 import z3
 
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of
-from mlca_verify.model import Expr, Invariant, Liveness, Machine, Num, Prev, nodes, show
+from mlca_verify.model import Expr, Invariant, Liveness, Machine, Num, prevs_of, show
 
 Relation = Literal["equivalent", "strengthened", "weakened", "incomparable", "unknown"]
 
@@ -41,7 +41,7 @@ class SharedValuation:
         self.systems = {id(m): self.system(m) for m in (old, new)}
 
     def system(self, m: Machine) -> System:
-        prevs = [p for e in _expressions(m) for p in _prevs_of(e)]
+        prevs = prevs_of(*_expressions(m))
         system = System(m, prevs, parametric=True)
         system.states = self.index
         return system
@@ -66,10 +66,6 @@ class SharedValuation:
 
 def _expressions(m: Machine) -> list[Expr]:
     return [i.expr for i in m.invariants] + [e for lv in m.liveness for e in (lv.assume, lv.goal)]
-
-
-def _prevs_of(expr: Expr) -> list[Prev]:
-    return [n for n in nodes(expr) if isinstance(n, Prev)]
 
 
 def implies(a: z3.ExprRef, b: z3.ExprRef, timeout_ms: int) -> bool | None:
