@@ -27,7 +27,7 @@ import z3
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
-from mlca_verify.logic.symbolic import System, value_of
+from mlca_verify.logic.symbolic import System, python_value, value_of
 from mlca_verify.model import Machine, Type, prevs_of
 from mlca_verify.targets import Layout, import_generated
 from mlca_verify.tools import C_FLAGS, run
@@ -214,7 +214,7 @@ class Semantics:
         self.solver = z3.Solver()
         self.solver.add(self.link)
 
-    def step(self, row: Row) -> tuple[int, list[object], list[object]]:
+    def step(self, row: Row) -> tuple[int, list[bool | int | float], list[bool | int | float]]:
         """The mode, the variables and the outputs after the step from `row`."""
         m, s = self.m, self.system
         k = 0
@@ -238,8 +238,8 @@ class Semantics:
             raise AssertionError(f"the spec has no step from {row}")
         model = self.solver.model()
         mode = model.eval(self.post.mode, model_completion=True).as_long()
-        variables = [_from_z3(model.eval(self.post.variables[v.name], model_completion=True)) for v in m.variables]
-        outputs = [_from_z3(model.eval(t, model_completion=True)) for t in s.outputs_at(self.terms.post).values()]
+        variables = [python_value(model.eval(self.post.variables[v.name], model_completion=True)) for v in m.variables]
+        outputs = [python_value(model.eval(t, model_completion=True)) for t in s.outputs_at(self.terms.post).values()]
         return mode, variables, outputs
 
 
@@ -251,14 +251,6 @@ def _z3_value(value: object, kind: Type, bounds: tuple[Fraction, Fraction] | Non
         return value_of(outside, kind)
     assert isinstance(value, int | float)
     return value_of(Fraction(value), kind)
-
-
-def _from_z3(term: z3.ExprRef) -> object:
-    if z3.is_true(term) or z3.is_false(term):
-        return 1 if z3.is_true(term) else 0
-    if z3.is_int_value(term):
-        return int(str(term))
-    return float(Fraction(term.numerator_as_long(), term.denominator_as_long()))
 
 
 # --- checks ------------------------------------------------------------------------------------------------

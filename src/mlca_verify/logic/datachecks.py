@@ -12,21 +12,18 @@ import z3
 
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
-from mlca_verify.logic.symbolic import Frame, Monitor, StepInputs, StepTerms, System, Valuation, input_only, value_of
+from mlca_verify.logic.symbolic import (
+    Frame,
+    Monitor,
+    StepInputs,
+    StepTerms,
+    System,
+    Valuation,
+    input_only,
+    python_value,
+    value_of,
+)
 from mlca_verify.model import Arith, Call, Expr, Invariant, Liveness, Machine, Num, Prev, Var, Verdict, nodes, prevs_of
-
-
-def _number(term: z3.ExprRef) -> Number:
-    if z3.is_true(term) or z3.is_false(term):
-        return bool(z3.is_true(term))
-    if z3.is_int_value(term):
-        return int(str(term))
-    if z3.is_rational_value(term):
-        value = Fraction(term.numerator_as_long(), term.denominator_as_long())
-        return int(value) if value.denominator == 1 else float(value)
-    if z3.is_algebraic_value(term):
-        return float(term.approx(20).as_fraction())
-    return 0
 
 
 def _reads_validity(*exprs: Expr) -> bool:
@@ -111,7 +108,7 @@ class DataChecker:
         for n, terms in enumerate(path.terms):
 
             def val(t: z3.ExprRef) -> Number:
-                return _number(model.eval(t, model_completion=True))
+                return python_value(model.eval(t, model_completion=True))
 
             fired = next(
                 (t for t in system.m.transitions if z3.is_true(model.eval(terms.fired[t.id], model_completion=True))),

@@ -42,6 +42,20 @@ from mlca_verify.model import (
 )
 
 
+def python_value(term: z3.ExprRef) -> bool | int | float:
+    """A value of a z3 model as Python holds it: a bool, an int, or a float (the nearest binary64)."""
+    if z3.is_true(term) or z3.is_false(term):
+        return bool(z3.is_true(term))
+    if z3.is_int_value(term):
+        return int(str(term))
+    if z3.is_rational_value(term):
+        value = Fraction(term.numerator_as_long(), term.denominator_as_long())
+        return int(value) if value.denominator == 1 else float(value)
+    if z3.is_algebraic_value(term):
+        return float(term.approx(20).as_fraction())
+    return 0
+
+
 def sort_of(kind: Type) -> z3.SortRef:
     return {"bool": z3.BoolSort(), "int": z3.IntSort(), "real": z3.RealSort()}[kind]
 
