@@ -80,7 +80,49 @@ def test_conformance_of_mlca_t_passes() -> None:
     assert by_name["exhaustive"].data["steps"] > 10_000
     assert by_name["cortex-m4"].data["data"] == 0 and by_name["cortex-m4"].data["bss"] == 0
     wp = by_name["frama-c-wp"].data
-    assert wp["proved"] == wp["goals"] > 400
+    assert wp["proved"] == wp["goals"] > 250
+    names = {g["goal"] for g in wp["goal_list"]}
+    # the mode logic against the behaviours of each mode, and the whole step against the spec's relation
+    assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in names
+    assert "typed_mlca_t_fired_WAITING_complete" in " ".join(names)
+    assert {"typed_mlca_t_step_ensures_3", "typed_mlca_t_step_ensures_4"} <= names
+    assert wp["binary64"] == ["mlca_t_shape1: ensures"]  # the gap rule's one C function over reals
+    # the spec's invariants on the step, each with its certificate; the two that compare samples are left out
+    certified = wp["certified"]
+    assert certified["proved"] == certified["goals"] > 0
+    assert set(certified["stated"]) == {
+        "A1", "A2", "A3", "A4", "deferral", "urgent-first-safe-step", "command-only-when-moving"
+    }  # fmt: skip
+    assert [x.split(":")[0] for x in certified["left"]] == ["fail-safe-left", "fail-safe-right"]
+
+
+@pytest.mark.slow
+def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -> None:
+    """The behaviours come from the spec, not from the code: a C `fired` that checks wait_right before
+    wait_left (both enabled when both gaps are safe) fails the wait_left behaviour."""
+    source = (GENERATED / "c" / "mlca_t_fsm.c").read_text()
+    left = "        fired = 5;\n"
+    right = "        fired = 6;\n"
+    assert source.count(left) == 1 and source.count(right) == 1
+    mutated = source.replace(left, "@@").replace(right, left).replace("@@", right)
+    (tmp_path / "mlca_t_fsm.c").write_text(mutated)
+    shutil.copy2(GENERATED / "c" / "mlca_t_fsm.h", tmp_path)
+    flags = ["-wp", "-wp-prover", "z3", "-wp-timeout", "10", "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING"]
+    ran = subprocess.run(
+        ["frama-c", *flags, "-warn-special-float", "none", "-wp-prop=-binary64", str(tmp_path / "mlca_t_fsm.c")],
+        check=False,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    failed = {
+        line.split(" Goal ")[1].split(" :")[0]
+        for line in ran.stdout.splitlines()
+        if "Goal" in line and "Valid" not in line
+    }
+    assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in failed, ran.stdout[-2000:]
+    assert not any("urgent" in goal for goal in failed)
 
 
 @pytest.mark.slow

@@ -162,8 +162,7 @@ mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in)
     if (!in.N) { /* reset: not N (Alg. 1, l.4-7), in every state */
         next = MLCA_IDLE;
     } else {
-        switch (s) {
-        case MLCA_IDLE:
+        if (s == MLCA_IDLE) {
             if (in.W) { /* idle_wait: N and W (Alg. 1, l.9-10) */
                 next = MLCA_WAITING;
             } else if (in.L) { /* idle_left: N and L (Alg. 1, l.11-12) */
@@ -173,31 +172,26 @@ mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in)
             } else { /* otherwise: stay (Alg. 1, l.1-2) */
                 next = MLCA_IDLE;
             }
-            break;
-        case MLCA_WAITING:
+        } else if (s == MLCA_WAITING) {
             if (in.L || in.R) { /* wait_exit: N and (L or R) (Alg. 1, l.16-18) */
                 next = MLCA_IDLE;
             } else { /* otherwise: stay (Alg. 1, l.1-2) */
                 next = MLCA_WAITING;
             }
-            break;
-        case MLCA_MOVING_LEFT:
+        } else if (s == MLCA_MOVING_LEFT) {
             if (!in.L) { /* left_abort: N and not L (Alg. 1, l.20-22) */
                 next = MLCA_IDLE;
             } else { /* otherwise: stay (Alg. 1, l.1-2) */
                 next = MLCA_MOVING_LEFT;
             }
-            break;
-        case MLCA_MOVING_RIGHT:
+        } else if (s == MLCA_MOVING_RIGHT) {
             if (!in.R) { /* right_abort: N and not R (Alg. 1, l.24-26) */
                 next = MLCA_IDLE;
             } else { /* otherwise: stay (Alg. 1, l.1-2) */
                 next = MLCA_MOVING_RIGHT;
             }
-            break;
-        default: /* out of range: back to the initial state */
+        } else { /* out of range: back to the initial state */
             next = MLCA_INITIAL;
-            break;
         }
     }
     return next;

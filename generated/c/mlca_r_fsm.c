@@ -176,8 +176,7 @@ mlca_r_state_t mlca_r_step(mlca_r_state_t s, mlca_r_inputs_t in)
     if (!in.N) { /* reset: not N (Alg. 1, l.4-7), in every state */
         next = MLCA_R_IDLE;
     } else {
-        switch (s) {
-        case MLCA_R_IDLE:
+        if (s == MLCA_R_IDLE) {
             if (in.W) { /* idle_wait: N and W (Alg. 1, l.9-10) */
                 next = MLCA_R_WAITING;
             } else if (in.L) { /* idle_left: N and L (Alg. 1, l.11-12) */
@@ -187,8 +186,7 @@ mlca_r_state_t mlca_r_step(mlca_r_state_t s, mlca_r_inputs_t in)
             } else { /* otherwise: stay (Alg. 1, l.1-2 (repaired at l.16-18)) */
                 next = MLCA_R_IDLE;
             }
-            break;
-        case MLCA_R_WAITING:
+        } else if (s == MLCA_R_WAITING) {
             if (in.L) { /* wait_left: N and L (repair of Alg. 1, l.16-18 (docs/findings.md F1); left first as in Alg. 1, l.11-12) */
                 next = MLCA_R_MOVING_LEFT;
             } else if (in.R) { /* wait_right: N and R (repair of Alg. 1, l.16-18 (docs/findings.md F1); as in Alg. 1, l.13-14) */
@@ -196,24 +194,20 @@ mlca_r_state_t mlca_r_step(mlca_r_state_t s, mlca_r_inputs_t in)
             } else { /* otherwise: stay (Alg. 1, l.1-2 (repaired at l.16-18)) */
                 next = MLCA_R_WAITING;
             }
-            break;
-        case MLCA_R_MOVING_LEFT:
+        } else if (s == MLCA_R_MOVING_LEFT) {
             if (!in.L) { /* left_abort: N and not L (Alg. 1, l.20-22) */
                 next = MLCA_R_IDLE;
             } else { /* otherwise: stay (Alg. 1, l.1-2 (repaired at l.16-18)) */
                 next = MLCA_R_MOVING_LEFT;
             }
-            break;
-        case MLCA_R_MOVING_RIGHT:
+        } else if (s == MLCA_R_MOVING_RIGHT) {
             if (!in.R) { /* right_abort: N and not R (Alg. 1, l.24-26) */
                 next = MLCA_R_IDLE;
             } else { /* otherwise: stay (Alg. 1, l.1-2 (repaired at l.16-18)) */
                 next = MLCA_R_MOVING_RIGHT;
             }
-            break;
-        default: /* out of range: back to the initial state */
+        } else { /* out of range: back to the initial state */
             next = MLCA_R_INITIAL;
-            break;
         }
     }
     return next;

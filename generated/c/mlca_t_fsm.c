@@ -20,6 +20,142 @@ static double mlca_t_max_d(double r, double a) { return (a > r) ? a : r; }
   @*/
 static int64_t mlca_t_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
 
+/* The spec in ACSL, for the contracts below: each definition and shared rule as a logic function (a predicate
+ * when boolean) of the context, inputs and params as values; each transition's condition; the transition that
+ * fires; and the whole step as a relation between the context before and after. Ints are exact (WP proves that
+ * no C operation on them overflows). A function that computes on reals is declared without a body: z3 decides
+ * binary64 by bit-blasting and runs out of memory on it, so the C function's ensures clause that links it to its
+ * symbol is the one goal left unproved for it, and the exhaustive and sequence checks compare that C bit for bit
+ * with the spec's semantics instead. */
+/*@ axiomatic mlca_t_binary64_shape1 {
+  @   predicate mlca_t_l_shape1(double s__0, double s__1, double s__2, double s__3, mlca_t_params_t p);
+  @ }
+  @*/
+/*@ predicate mlca_t_l_L(mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_l_shape1(i.gap_lead_left, i.v, i.gap_follow_left, i.v_follow_left, p);
+  @*/
+/*@ predicate mlca_t_l_R(mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_l_shape1(i.gap_lead_right, i.v, i.gap_follow_right, i.v_follow_right, p);
+  @*/
+/*@ predicate mlca_t_l_W(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   ((!(i.U != 0)) && (c.waited < p.T_MIN));
+  @*/
+/*@ predicate mlca_t_l_prev0(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   ((c.mode == MLCA_T_IDLE) || (c.mode == MLCA_T_WAITING));
+  @*/
+/* when1: reset */
+/*@ predicate mlca_t_when1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   (!(i.N != 0));
+  @*/
+/* when2: urgent_left */
+/*@ predicate mlca_t_when2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   ((i.U != 0) && mlca_t_l_L(i, p));
+  @*/
+/* when3: urgent_right */
+/*@ predicate mlca_t_when3(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   ((i.U != 0) && mlca_t_l_R(i, p));
+  @*/
+/* when4: idle_wait */
+/*@ predicate mlca_t_when4(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   (!(i.U != 0));
+  @*/
+/* when5: wait_left */
+/*@ predicate mlca_t_when5(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   ((!mlca_t_l_W(c, i, p)) && mlca_t_l_L(i, p));
+  @*/
+/* when6: wait_right */
+/*@ predicate mlca_t_when6(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   ((!mlca_t_l_W(c, i, p)) && mlca_t_l_R(i, p));
+  @*/
+/* when7: left_abort */
+/*@ predicate mlca_t_when7(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   (!mlca_t_l_L(i, p));
+  @*/
+/* when8: right_abort */
+/*@ predicate mlca_t_when8(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   (!mlca_t_l_R(i, p));
+  @*/
+/* mlca_t_<STATE>__none_<k>: in that mode, none of its first k transitions is enabled (first-match, in priority
+ * order); each is the one before it and one more condition, so the contract grows linearly with the transitions. */
+/*@ predicate mlca_t_IDLE__none_1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   !mlca_t_when1(c, i, p);
+  @*/
+/*@ predicate mlca_t_IDLE__none_2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_IDLE__none_1(c, i, p) && !mlca_t_when2(c, i, p);
+  @*/
+/*@ predicate mlca_t_IDLE__none_3(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_IDLE__none_2(c, i, p) && !mlca_t_when3(c, i, p);
+  @*/
+/*@ predicate mlca_t_IDLE__none_4(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_IDLE__none_3(c, i, p) && !mlca_t_when4(c, i, p);
+  @*/
+/*@ predicate mlca_t_WAITING__none_1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   !mlca_t_when1(c, i, p);
+  @*/
+/*@ predicate mlca_t_WAITING__none_2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_WAITING__none_1(c, i, p) && !mlca_t_when2(c, i, p);
+  @*/
+/*@ predicate mlca_t_WAITING__none_3(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_WAITING__none_2(c, i, p) && !mlca_t_when3(c, i, p);
+  @*/
+/*@ predicate mlca_t_WAITING__none_4(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_WAITING__none_3(c, i, p) && !mlca_t_when5(c, i, p);
+  @*/
+/*@ predicate mlca_t_WAITING__none_5(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_WAITING__none_4(c, i, p) && !mlca_t_when6(c, i, p);
+  @*/
+/*@ predicate mlca_t_MOVING_LEFT__none_1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   !mlca_t_when1(c, i, p);
+  @*/
+/*@ predicate mlca_t_MOVING_LEFT__none_2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_MOVING_LEFT__none_1(c, i, p) && !mlca_t_when7(c, i, p);
+  @*/
+/*@ predicate mlca_t_MOVING_RIGHT__none_1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   !mlca_t_when1(c, i, p);
+  @*/
+/*@ predicate mlca_t_MOVING_RIGHT__none_2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_MOVING_RIGHT__none_1(c, i, p) && !mlca_t_when8(c, i, p);
+  @*/
+/* mlca_t_fires_<MODE>(c, i, p, k): in that mode, k is the transition that fires, by its number (0: none) */
+/*@ predicate mlca_t_fires_IDLE(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
+  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when2(c, i, p) ? k == 2 : mlca_t_when3(c, i, p) ? k == 3 : mlca_t_when4(c, i, p) ? k == 4 : k == 0;
+  @*/
+/*@ predicate mlca_t_fires_WAITING(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
+  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when2(c, i, p) ? k == 2 : mlca_t_when3(c, i, p) ? k == 3 : mlca_t_when5(c, i, p) ? k == 5 : mlca_t_when6(c, i, p) ? k == 6 : k == 0;
+  @*/
+/*@ predicate mlca_t_fires_MOVING_LEFT(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
+  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when7(c, i, p) ? k == 7 : k == 0;
+  @*/
+/*@ predicate mlca_t_fires_MOVING_RIGHT(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
+  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when8(c, i, p) ? k == 8 : k == 0;
+  @*/
+/* mlca_t_fires(c, i, p, k): k is the transition that fires (-1: the mode is not a state) */
+/*@ predicate mlca_t_fires(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
+  @   c.mode == MLCA_T_IDLE ? mlca_t_fires_IDLE(c, i, p, k) :
+  @   c.mode == MLCA_T_WAITING ? mlca_t_fires_WAITING(c, i, p, k) :
+  @   c.mode == MLCA_T_MOVING_LEFT ? mlca_t_fires_MOVING_LEFT(c, i, p, k) :
+  @   c.mode == MLCA_T_MOVING_RIGHT ? mlca_t_fires_MOVING_RIGHT(c, i, p, k) :
+  @   k == -1;
+  @*/
+/*@ axiomatic mlca_t_any {
+  @   logic mlca_t_inputs_t mlca_t_any_inputs;
+  @   logic mlca_t_params_t mlca_t_any_params;
+  @ }
+  @*/
+/* mlca_t_next(c, i, p, k, n): n is the context after transition k fires in c (-1: the reset of a context whose
+ * mode is not a state, whatever the inputs and params) */
+/*@ predicate mlca_t_next(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k, mlca_t_ctx_t n) =
+  @   k < 0 ? (n.mode == MLCA_T_INITIAL && n.waited == 0 && n.need_age == 0 && n.prev0 == 0 && n.first == 1)
+  @   : (n.mode == (k == 1 ? MLCA_T_IDLE : k == 2 ? MLCA_T_MOVING_LEFT : k == 3 ? MLCA_T_MOVING_RIGHT : k == 4 ? MLCA_T_WAITING : k == 5 ? MLCA_T_MOVING_LEFT : k == 6 ? MLCA_T_MOVING_RIGHT : k == 7 ? MLCA_T_IDLE : k == 8 ? MLCA_T_IDLE : c.mode)
+  @     && n.waited == (k == 1 ? 0 : k == 4 ? 1 : ((1000 < (c.waited + 1)) ? 1000 : (c.waited + 1)))
+  @     && n.need_age == (((i.N != 0) ? ((1000 < (c.need_age + 1)) ? 1000 : (c.need_age + 1)) : 0))
+  @     && ((n.prev0 != 0) <==> mlca_t_l_prev0(n, i, p))
+  @     && n.first == 0);
+  @*/
+/*@ predicate mlca_t_outputs_l(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, mlca_t_outputs_t o) =
+  @   (o.command == ((c.mode == MLCA_T_MOVING_LEFT) ? 1 : ((c.mode == MLCA_T_MOVING_RIGHT) ? -1 : 0))) && \true;
+  @*/
+
 /*@ requires \valid_read(p);
   @ assigns \nothing;
   @*/
@@ -37,6 +173,7 @@ bool mlca_t_params_valid(const mlca_t_params_t *p)
 /* One rule for L, R: s__0 >= max(MIN_GAP, TIME_GAP * s__1) and s__2 >= max(MIN_GAP, TIME_GAP * s__3) and (s__3 - s__1 <= 0 or (s__3 - s__1) * (s__3 - s__1) <= 2 * FOLLOWER_DECEL * s__2) */
 /*@ requires \valid_read(p);
   @ assigns \nothing;
+  @ ensures binary64: ((\result != 0) <==> mlca_t_l_shape1(s__0, s__1, s__2, s__3, *p));
   @*/
 static bool mlca_t_shape1(double s__0, double s__1, double s__2, double s__3, const mlca_t_params_t *p)
 {
@@ -47,6 +184,7 @@ static bool mlca_t_shape1(double s__0, double s__1, double s__2, double s__3, co
 /* L: gap_lead_left >= max(MIN_GAP, TIME_GAP * v) and gap_follow_left >= max(MIN_GAP, TIME_GAP * v_follow_left) and (closing_left <= 0 or closing_left * closing_left <= 2 * FOLLOWER_DECEL * gap_follow_left) (Alg. 1 Require; Sec. III-B 'L (Left Side Empty)') */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
   @ assigns \nothing;
+  @ ensures ((\result != 0) <==> mlca_t_l_L(*i, *p));
   @*/
 static bool mlca_t_def_L(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
@@ -59,6 +197,7 @@ static bool mlca_t_def_L(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 /* R: gap_lead_right >= max(MIN_GAP, TIME_GAP * v) and gap_follow_right >= max(MIN_GAP, TIME_GAP * v_follow_right) and (closing_right <= 0 or closing_right * closing_right <= 2 * FOLLOWER_DECEL * gap_follow_right) (Alg. 1 Require; Sec. III-B 'R (Right Side Empty)') */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
   @ assigns \nothing;
+  @ ensures ((\result != 0) <==> mlca_t_l_R(*i, *p));
   @*/
 static bool mlca_t_def_R(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
@@ -71,6 +210,7 @@ static bool mlca_t_def_R(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 /* W: not U and waited < T_MIN (Sec. III-B 'W (Can Wait)'; Fig. 1 caption ('waiting timeout')) */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
   @ assigns \nothing;
+  @ ensures ((\result != 0) <==> mlca_t_l_W(*c, *i, *p));
   @*/
 static bool mlca_t_def_W(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
@@ -83,6 +223,7 @@ static bool mlca_t_def_W(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 /* prev0: state in {IDLE, WAITING} */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
   @ assigns \nothing;
+  @ ensures ((\result != 0) <==> mlca_t_l_prev0(*c, *i, *p));
   @*/
 static bool mlca_t_reg0(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
@@ -94,6 +235,7 @@ static bool mlca_t_reg0(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const m
 
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && \valid(o) && \separated(o, c, i, p);
   @ assigns *o;
+  @ ensures mlca_t_outputs_l(*c, *i, *p, *o);
   @*/
 static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p, mlca_t_outputs_t *o)
 {
@@ -106,6 +248,7 @@ static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, cons
 /*@ requires \valid(c);
   @ assigns *c;
   @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL;
+  @ ensures mlca_t_next(\old(*c), mlca_t_any_inputs, mlca_t_any_params, -1, *c);
   @*/
 static void mlca_t_reset(mlca_t_ctx_t *c)
 {
@@ -119,84 +262,205 @@ static void mlca_t_reset(mlca_t_ctx_t *c)
 /*@ requires \valid(c);
   @ assigns *c;
   @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL;
+  @ ensures mlca_t_next(\old(*c), mlca_t_any_inputs, mlca_t_any_params, -1, *c);
   @*/
 void mlca_t_init(mlca_t_ctx_t *c)
 {
     mlca_t_reset(c);
 }
 
-/* The first enabled transition of the mode, by its number in the spec (0: none, -1: the mode is not a state). */
-/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+/* The first enabled transition of each mode, by its number in the spec (0: none), in a function of its own with
+ * one behaviour per transition: each WP goal then holds that mode's transitions only. The behaviours are
+ * disjoint by construction (each assumes that the transitions before it are disabled), which is not restated:
+ * WP would check it pair by pair. */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_IDLE;
   @ assigns \nothing;
-  @ ensures -1 <= \result <= 8;
-  @ ensures \result == -1 <==> !(c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT);
+  @ ensures mlca_t_fires_IDLE(*c, *i, *p, \result);
+  @ behavior IDLE__1_reset:
+  @   assumes mlca_t_when1(*c, *i, *p);
+  @   ensures \result == 1;
+  @ behavior IDLE__2_urgent_left:
+  @   assumes mlca_t_when2(*c, *i, *p);
+  @   assumes mlca_t_IDLE__none_1(*c, *i, *p);
+  @   ensures \result == 2;
+  @ behavior IDLE__3_urgent_right:
+  @   assumes mlca_t_when3(*c, *i, *p);
+  @   assumes mlca_t_IDLE__none_2(*c, *i, *p);
+  @   ensures \result == 3;
+  @ behavior IDLE__4_idle_wait:
+  @   assumes mlca_t_when4(*c, *i, *p);
+  @   assumes mlca_t_IDLE__none_3(*c, *i, *p);
+  @   ensures \result == 4;
+  @ behavior IDLE__otherwise:
+  @   assumes mlca_t_IDLE__none_4(*c, *i, *p);
+  @   ensures \result == 0;
+  @ complete behaviors;
   @*/
-static int mlca_t_fired(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
+static int mlca_t_fired_IDLE(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {
     int fired = 0;
+    (void)c;
     (void)i;
     (void)p;
-    switch (c->mode) {
-    case MLCA_T_IDLE:
-        if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
-            fired = 1;
-        } else if ((i->U && mlca_t_def_L(c, i, p))) { /* urgent_left: U and L (Alg. 1, l.11-12 (W false: no waiting)) */
-            fired = 2;
-        } else if ((i->U && mlca_t_def_R(c, i, p))) { /* urgent_right: U and R (Alg. 1, l.13-14 (W false: no waiting)) */
-            fired = 3;
-        } else if ((!i->U)) { /* idle_wait: not U (Alg. 1, l.9-10; Fig. 1 caption ('waiting timeout')) */
-            fired = 4;
-        } else { /* otherwise: the mode is kept */
-            fired = 0;
-        }
-        break;
-    case MLCA_T_WAITING:
-        if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
-            fired = 1;
-        } else if ((i->U && mlca_t_def_L(c, i, p))) { /* urgent_left: U and L (Alg. 1, l.11-12 (W false: no waiting)) */
-            fired = 2;
-        } else if ((i->U && mlca_t_def_R(c, i, p))) { /* urgent_right: U and R (Alg. 1, l.13-14 (W false: no waiting)) */
-            fired = 3;
-        } else if (((!mlca_t_def_W(c, i, p)) && mlca_t_def_L(c, i, p))) { /* wait_left: not W and L (repair of Alg. 1, l.16-18 (docs/findings.md F1), after the waiting timeout) */
-            fired = 5;
-        } else if (((!mlca_t_def_W(c, i, p)) && mlca_t_def_R(c, i, p))) { /* wait_right: not W and R (repair of Alg. 1, l.16-18 (docs/findings.md F1), after the waiting timeout) */
-            fired = 6;
-        } else { /* otherwise: the mode is kept */
-            fired = 0;
-        }
-        break;
-    case MLCA_T_MOVING_LEFT:
-        if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
-            fired = 1;
-        } else if ((!mlca_t_def_L(c, i, p))) { /* left_abort: not L (Alg. 1, l.20-22) */
-            fired = 7;
-        } else { /* otherwise: the mode is kept */
-            fired = 0;
-        }
-        break;
-    case MLCA_T_MOVING_RIGHT:
-        if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
-            fired = 1;
-        } else if ((!mlca_t_def_R(c, i, p))) { /* right_abort: not R (Alg. 1, l.24-26) */
-            fired = 8;
-        } else { /* otherwise: the mode is kept */
-            fired = 0;
-        }
-        break;
-    default: /* not a state */
-        fired = -1;
-        break;
+    if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
+        fired = 1;
+    } else if ((i->U && mlca_t_def_L(c, i, p))) { /* urgent_left: U and L (Alg. 1, l.11-12 (W false: no waiting)) */
+        fired = 2;
+    } else if ((i->U && mlca_t_def_R(c, i, p))) { /* urgent_right: U and R (Alg. 1, l.13-14 (W false: no waiting)) */
+        fired = 3;
+    } else if ((!i->U)) { /* idle_wait: not U (Alg. 1, l.9-10; Fig. 1 caption ('waiting timeout')) */
+        fired = 4;
+    } else { /* otherwise: the mode is kept */
+        fired = 0;
     }
     return fired;
 }
 
-/* Proved by Frama-C WP (`mlca-verify conform`, check frama-c-wp): no runtime error, and from a context whose
- * variables are in their ranges (the spec's range: checks prove every reachable one is), the step keeps them in
- * range and leaves the mode a state. */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_WAITING;
+  @ assigns \nothing;
+  @ ensures mlca_t_fires_WAITING(*c, *i, *p, \result);
+  @ behavior WAITING__1_reset:
+  @   assumes mlca_t_when1(*c, *i, *p);
+  @   ensures \result == 1;
+  @ behavior WAITING__2_urgent_left:
+  @   assumes mlca_t_when2(*c, *i, *p);
+  @   assumes mlca_t_WAITING__none_1(*c, *i, *p);
+  @   ensures \result == 2;
+  @ behavior WAITING__3_urgent_right:
+  @   assumes mlca_t_when3(*c, *i, *p);
+  @   assumes mlca_t_WAITING__none_2(*c, *i, *p);
+  @   ensures \result == 3;
+  @ behavior WAITING__4_wait_left:
+  @   assumes mlca_t_when5(*c, *i, *p);
+  @   assumes mlca_t_WAITING__none_3(*c, *i, *p);
+  @   ensures \result == 5;
+  @ behavior WAITING__5_wait_right:
+  @   assumes mlca_t_when6(*c, *i, *p);
+  @   assumes mlca_t_WAITING__none_4(*c, *i, *p);
+  @   ensures \result == 6;
+  @ behavior WAITING__otherwise:
+  @   assumes mlca_t_WAITING__none_5(*c, *i, *p);
+  @   ensures \result == 0;
+  @ complete behaviors;
+  @*/
+static int mlca_t_fired_WAITING(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
+{
+    int fired = 0;
+    (void)c;
+    (void)i;
+    (void)p;
+    if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
+        fired = 1;
+    } else if ((i->U && mlca_t_def_L(c, i, p))) { /* urgent_left: U and L (Alg. 1, l.11-12 (W false: no waiting)) */
+        fired = 2;
+    } else if ((i->U && mlca_t_def_R(c, i, p))) { /* urgent_right: U and R (Alg. 1, l.13-14 (W false: no waiting)) */
+        fired = 3;
+    } else if (((!mlca_t_def_W(c, i, p)) && mlca_t_def_L(c, i, p))) { /* wait_left: not W and L (repair of Alg. 1, l.16-18 (docs/findings.md F1), after the waiting timeout) */
+        fired = 5;
+    } else if (((!mlca_t_def_W(c, i, p)) && mlca_t_def_R(c, i, p))) { /* wait_right: not W and R (repair of Alg. 1, l.16-18 (docs/findings.md F1), after the waiting timeout) */
+        fired = 6;
+    } else { /* otherwise: the mode is kept */
+        fired = 0;
+    }
+    return fired;
+}
+
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_MOVING_LEFT;
+  @ assigns \nothing;
+  @ ensures mlca_t_fires_MOVING_LEFT(*c, *i, *p, \result);
+  @ behavior MOVING_LEFT__1_reset:
+  @   assumes mlca_t_when1(*c, *i, *p);
+  @   ensures \result == 1;
+  @ behavior MOVING_LEFT__2_left_abort:
+  @   assumes mlca_t_when7(*c, *i, *p);
+  @   assumes mlca_t_MOVING_LEFT__none_1(*c, *i, *p);
+  @   ensures \result == 7;
+  @ behavior MOVING_LEFT__otherwise:
+  @   assumes mlca_t_MOVING_LEFT__none_2(*c, *i, *p);
+  @   ensures \result == 0;
+  @ complete behaviors;
+  @*/
+static int mlca_t_fired_MOVING_LEFT(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
+{
+    int fired = 0;
+    (void)c;
+    (void)i;
+    (void)p;
+    if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
+        fired = 1;
+    } else if ((!mlca_t_def_L(c, i, p))) { /* left_abort: not L (Alg. 1, l.20-22) */
+        fired = 7;
+    } else { /* otherwise: the mode is kept */
+        fired = 0;
+    }
+    return fired;
+}
+
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_MOVING_RIGHT;
+  @ assigns \nothing;
+  @ ensures mlca_t_fires_MOVING_RIGHT(*c, *i, *p, \result);
+  @ behavior MOVING_RIGHT__1_reset:
+  @   assumes mlca_t_when1(*c, *i, *p);
+  @   ensures \result == 1;
+  @ behavior MOVING_RIGHT__2_right_abort:
+  @   assumes mlca_t_when8(*c, *i, *p);
+  @   assumes mlca_t_MOVING_RIGHT__none_1(*c, *i, *p);
+  @   ensures \result == 8;
+  @ behavior MOVING_RIGHT__otherwise:
+  @   assumes mlca_t_MOVING_RIGHT__none_2(*c, *i, *p);
+  @   ensures \result == 0;
+  @ complete behaviors;
+  @*/
+static int mlca_t_fired_MOVING_RIGHT(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
+{
+    int fired = 0;
+    (void)c;
+    (void)i;
+    (void)p;
+    if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7) */
+        fired = 1;
+    } else if ((!mlca_t_def_R(c, i, p))) { /* right_abort: not R (Alg. 1, l.24-26) */
+        fired = 8;
+    } else { /* otherwise: the mode is kept */
+        fired = 0;
+    }
+    return fired;
+}
+
+/* The first enabled transition of the mode (-1: the mode is not a state). The modes, and in the step the
+ * transitions, are told apart by if chains: WP splits each postcondition into one goal per case of a switch. */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
+  @ assigns \nothing;
+  @ ensures mlca_t_fires(*c, *i, *p, \result);
+  @ ensures \result == -1 <==> !(c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT);
+  @*/
+static int mlca_t_fired(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
+{
+    int fired = -1;
+    if (c->mode == MLCA_T_IDLE) {
+        fired = mlca_t_fired_IDLE(c, i, p);
+    } else if (c->mode == MLCA_T_WAITING) {
+        fired = mlca_t_fired_WAITING(c, i, p);
+    } else if (c->mode == MLCA_T_MOVING_LEFT) {
+        fired = mlca_t_fired_MOVING_LEFT(c, i, p);
+    } else if (c->mode == MLCA_T_MOVING_RIGHT) {
+        fired = mlca_t_fired_MOVING_RIGHT(c, i, p);
+    } else { /* not a state */
+        fired = -1;
+    }
+    return fired;
+}
+
+/* Proved by Frama-C WP (`mlca-verify conform`, check frama-c-wp): no runtime error; the step is the spec's (the
+ * context after it and the outputs are those of the transition that fires); and from a context whose variables
+ * are in their ranges (the spec's range: checks prove every reachable one is), it keeps them in range and leaves
+ * the mode a state. */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && \valid(c) && \valid(o) && \separated(c, o, i, p) && \separated(o, i, p);
   @ assigns *c, *o;
   @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true;
   @ ensures c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT;
+  @ ensures \exists integer k; mlca_t_fires(\old(*c), *i, *p, k) && mlca_t_next(\old(*c), *i, *p, k, *c);
+  @ ensures mlca_t_outputs_l(*c, *i, *p, *o);
   @*/
 void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p, mlca_t_outputs_t *o)
 {
@@ -205,33 +469,24 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
     if (fired < 0) {
         mlca_t_reset(&next);
     } else {
-        switch (fired) {
-        case 1: /* reset */
+        if (fired == 1) { /* reset */
             next.mode = MLCA_T_IDLE;
-            break;
-        case 2: /* urgent_left */
+        } else if (fired == 2) { /* urgent_left */
             next.mode = MLCA_T_MOVING_LEFT;
-            break;
-        case 3: /* urgent_right */
+        } else if (fired == 3) { /* urgent_right */
             next.mode = MLCA_T_MOVING_RIGHT;
-            break;
-        case 4: /* idle_wait */
+        } else if (fired == 4) { /* idle_wait */
             next.mode = MLCA_T_WAITING;
-            break;
-        case 5: /* wait_left */
+        } else if (fired == 5) { /* wait_left */
             next.mode = MLCA_T_MOVING_LEFT;
-            break;
-        case 6: /* wait_right */
+        } else if (fired == 6) { /* wait_right */
             next.mode = MLCA_T_MOVING_RIGHT;
-            break;
-        case 7: /* left_abort */
+        } else if (fired == 7) { /* left_abort */
             next.mode = MLCA_T_IDLE;
-            break;
-        case 8: /* right_abort */
+        } else if (fired == 8) { /* right_abort */
             next.mode = MLCA_T_IDLE;
-            break;
-        default: /* no transition: the mode is kept */
-            break;
+        } else { /* no transition: the mode is kept */
+            next.mode = c->mode;
         }
         if (fired == 1) { /* waited = 0 */
             next.waited = (int32_t)(INT64_C(0));

@@ -4,14 +4,16 @@ The templates print it; they never re-derive semantics from the spec."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 
+from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_literal
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import Definition as SpecDefinition
-from mlca_verify.model import Expr, Machine, Type, Var, nodes, prevs_of, show
+from mlca_verify.model import Expr, Machine, Num, Type, Var, nodes, prevs_of, show
 
 
 @dataclass(frozen=True)
@@ -21,6 +23,7 @@ class Code:
     c: str
     py: str
     text: str
+    acsl: str = ""  # the same value in the contracts' logic (see `acsl`)
 
 
 @dataclass(frozen=True)
@@ -44,6 +47,8 @@ class Definition:
     code: Code
     doc: str
     cite: str
+    exact: bool = True  # its logic function has a body: it computes on no real itself (see `binary64`)
+    free: bool = False  # its logic function takes no context (see `acsl.context_free`)
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,7 @@ class SharedShape:
     args: tuple[tuple[str, str, str], ...]  # name, C type, Python type
     code: Code
     users: tuple[str, ...]
+    exact: bool = True
 
 
 @dataclass(frozen=True)
@@ -126,6 +132,7 @@ class DataIR:
     helpers: frozenset[str] = frozenset()  # the C helpers the code calls: min_d, max_i, div, ...
     shapes: tuple[SharedShape, ...] = ()
     used: frozenset[str] = frozenset()  # the definitions whose functions the code calls
+    guards: tuple[Code, ...] = ()  # of each transition, by its number from 1
 
 
 PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
@@ -134,13 +141,14 @@ PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
 def _literal(v: Fraction, kind: Type) -> Code:
     """A constant of the spec (a default, a range end) as both languages write it."""
     text = real_literal(v) if kind == "real" else str(int(v))
-    return Code(text, text, str(v))
+    return Code(text, text, str(v), AcslLowering.real(v) if kind == "real" else text)
 
 
 def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> DataIR:
     macro = module.upper()
     names = names_of(m, module, macro)
     c, py = Lowering(names, "c"), Lowering(names, "py")
+    logic = AcslLowering(c, context_free(m))
     for inv in m.invariants:
         if any(
             isinstance(x, Var) and names.kinds[x.name] == "output" for p in prevs_of(inv.expr) for x in nodes(p.arg)
@@ -150,10 +158,11 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     c_prev = {p: f"prev{k}" for p, k in prevs.items()}
 
     def code(e: Expr, with_prev: bool = False) -> Code:
-        return Code(c.go(e, c_prev if with_prev else None), py.go(e, c_prev if with_prev else None), show(e))
+        prev = c_prev if with_prev else None
+        return Code(c.go(e, prev), py.go(e, prev), show(e), "" if with_prev else logic.go(e))
 
     def typed(e: Expr, kind: Type) -> Code:
-        return Code(c.as_type(e, kind, None), py.as_type(e, kind, None), show(e))
+        return Code(c.as_type(e, kind, None), py.as_type(e, kind, None), show(e), logic.as_type(e, kind, None))
 
     def number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
         low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
@@ -206,7 +215,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
         params=tuple(number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
         variables=tuple(number_field(v, v.type, v.range, default=_literal(v.initial, v.type)) for v in m.variables),
-        definitions=tuple(_definition(d, c, py, uses.get(d.name)) for d in m.definitions),
+        definitions=tuple(_definition(d, c, py, logic, uses.get(d.name)) for d in m.definitions),
         shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
             Definition(o.name, c_type(o.type), PY_TYPES[o.type], typed(o.expr, o.type), o.doc, o.cite)
@@ -219,6 +228,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         ),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
+        guards=tuple(code(t.guard) for t in m.transitions),
     )
     text = repr(replace(ir, definitions=()))
     used: set[str] = set()
@@ -237,23 +247,58 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
 HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
 
 
-def _gated(body_c: str, body_py: str, valid: tuple[list[str], list[str]], if_invalid: bool) -> tuple[str, str]:
+def _gated(body: Code, valid: Code, if_invalid: bool) -> Code:
     """A boolean that reads samples: its `if_invalid` value unless every one is valid (tested first)."""
-    fallback_c, fallback_py = ("true", "True") if if_invalid else ("false", "False")
-    valid_c, valid_py = " && ".join(valid[0]), " and ".join(valid[1])
-    return f"(({valid_c}) ? {body_c} : {fallback_c})", f"({body_py} if ({valid_py}) else {fallback_py})"
+    c, py, acsl = ("true", "True", "\\true") if if_invalid else ("false", "False", "\\false")
+    return Code(
+        f"(({valid.c}) ? {body.c} : {c})",
+        f"({body.py} if ({valid.py}) else {py})",
+        body.text,
+        f"(({valid.acsl}) ? {body.acsl} : {acsl})",
+    )
 
 
-def _definition(d: SpecDefinition, c: Lowering, py: Lowering, use: Use | None) -> Definition:
+def _validity(signals: Sequence[str], c: Lowering, py: Lowering, logic: Lowering) -> Code:
+    return Code(
+        " && ".join(c.valid(s) for s in signals),
+        " and ".join(py.valid(s) for s in signals),
+        "",
+        " && ".join(logic.valid(s) for s in signals),
+    )
+
+
+def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowering, use: Use | None) -> Definition:
     if use is not None:
-        call_c = f"{c.n.prefix}_shape{use.shape}(" + ", ".join(f"i->{s}" for s in use.signals) + ", p)"
-        call_py = f"_shape{use.shape}(" + ", ".join(f"i.{s}" for s in use.signals) + ", p)"
-        return Definition(d.name, c_type(d.type), PY_TYPES[d.type], Code(call_c, call_py, show(d.expr)), d.doc, d.cite)
-    body_c, body_py = c.as_type(d.expr, d.type, None), py.as_type(d.expr, d.type, None)
+        args_c, args_py, args_l = (", ".join(f"{v}{s}" for s in use.signals) for v in ("i->", "i.", "i."))
+        call = Code(
+            f"{c.n.prefix}_shape{use.shape}({args_c}, p)",
+            f"_shape{use.shape}({args_py}, p)",
+            show(d.expr),
+            f"{c.n.prefix}_l_shape{use.shape}({args_l}, p)",
+        )
+        return Definition(d.name, c_type(d.type), PY_TYPES[d.type], call, d.doc, d.cite, free=d.name in logic.free)
+    exact = not binary64(d.expr, c.n.types)
+    body = Code(
+        c.as_type(d.expr, d.type, None),
+        py.as_type(d.expr, d.type, None),
+        show(d.expr),
+        logic.as_type(d.expr, d.type, None),
+    )
     if d.type == "bool" and d.signals:
-        valid = ([c.valid(s) for s in d.signals], [py.valid(s) for s in d.signals])
-        body_c, body_py = _gated(body_c, body_py, valid, d.if_invalid)
-    return Definition(d.name, c_type(d.type), PY_TYPES[d.type], Code(body_c, body_py, show(d.expr)), d.doc, d.cite)
+        body = _gated(body, _validity(d.signals, c, py, logic), d.if_invalid)
+    return Definition(d.name, c_type(d.type), PY_TYPES[d.type], body, d.doc, d.cite, exact, d.name in logic.free)
+
+
+def binary64(e: Expr, types: Mapping[str, Type]) -> bool:
+    """Whether `e` itself computes on reals. Its logic function is then left without a body: z3, through Why3,
+    decides binary64 by bit-blasting and runs out of memory on any goal that has such a body among its
+    hypotheses (measured on MLCA-T's gap rules), so the C function's link to it is left to the exhaustive and
+    sequence comparisons, which check that C bit for bit against z3's own semantics of the spec."""
+    return any(
+        (isinstance(x, Num) and (x.real or x.value.denominator != 1))
+        or (isinstance(x, Var) and types.get(x.name) == "real")
+        for x in nodes(e)
+    )
 
 
 def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
@@ -262,11 +307,16 @@ def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
     ranges = {**names.ranges, **{a: bounds for a, _, bounds in sh.args}}
     view = replace(names, kinds=kinds, types=types, ranges=ranges)
     c, py = Lowering(view, "c"), Lowering(view, "py")
-    body_c, body_py = c.as_type(sh.expr, sh.kind, None), py.as_type(sh.expr, sh.kind, None)
+    logic = AcslLowering(c)
+    code = Code(
+        c.as_type(sh.expr, sh.kind, None),
+        py.as_type(sh.expr, sh.kind, None),
+        show(sh.expr),
+        logic.as_type(sh.expr, sh.kind, None),
+    )
     if sh.guarded:
-        valid = ([c.valid(a) for a, _, _ in sh.args], [py.valid(a) for a, _, _ in sh.args])
-        body_c, body_py = _gated(body_c, body_py, valid, sh.if_invalid)
+        code = _gated(code, _validity([a for a, _, _ in sh.args], c, py, logic), sh.if_invalid)
     args = tuple((a, c_type(kind, bounds), PY_TYPES[kind]) for a, kind, bounds in sh.args)
     users = tuple(sorted(name for name, use in uses.items() if use.shape == sh.index))
-    code = Code(body_c, body_py, show(sh.expr))
-    return SharedShape(sh.index, c_type(sh.kind), PY_TYPES[sh.kind], args, code, users)
+    exact = not binary64(sh.expr, types)
+    return SharedShape(sh.index, c_type(sh.kind), PY_TYPES[sh.kind], args, code, users, exact)

@@ -24,9 +24,14 @@ from typing import Any
 
 import z3
 
+from mlca_verify.codegen.acsl import AcslLowering, context_free
+from mlca_verify.codegen.certified import Proved, certify, ranges
 from mlca_verify.codegen.data_ir import DataIR
+from mlca_verify.codegen.lower import Lowering, names_of
 from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
+from mlca_verify.logic.datachecks import check_data_machine
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.symbolic import System, python_value, value_of
 from mlca_verify.model import Machine, Type, prevs_of
 from mlca_verify.targets import Layout, import_generated
@@ -407,16 +412,79 @@ def cross_build(t: DataTarget) -> CheckOutcome:
 
 
 def frama_c(t: DataTarget) -> CheckOutcome:
-    """WP: no runtime error (integer overflow included), variables kept in range, the mode a state. The IEEE 754
-    special values are allowed (-warn-special-float none): NaN and the infinities are inputs the code handles by
-    design, never read by a decision (the validity gate comes first)."""
+    """WP: no runtime error (integer overflow included), the step equal to the spec's transition relation (the
+    transition that fires, by the ACSL behaviours of each mode, and the context and outputs after it), variables
+    kept in range, the mode a state. The IEEE 754 special values are allowed (-warn-special-float none): NaN and
+    the infinities are inputs the code handles by design, never read by a decision (the validity gate comes
+    first). The ensures clauses labelled `binary64` link a C function that computes on reals to its logic
+    symbol, which has no body (see `codegen.data_ir.binary64`): they are listed, not sent to the prover. Then
+    the spec's proved invariants, each with its certificate, on a wrapper of the step (`certified`)."""
     monitor = f"{t.ir.module}_monitor"
-    outcome = wp_file(t.layout.c_source, t.build, ("-warn-special-float", "none", "-wp-skip-fct", monitor))
+    flags = ("-warn-special-float", "none", "-wp-skip-fct", monitor, "-wp-prop=-binary64")
+    outcome = wp_file(t.layout.c_source, t.build, flags)
+    left = binary64_goals(t.ir)
     note = (
         f"; {monitor} is not proved (WP times out on its memory accesses) and is covered by the exhaustive and "
         "sequence checks instead"
     )
-    return replace(outcome, detail=outcome.detail + note)
+    if left:
+        note += (
+            f"; {len(left)} binary64 goal(s) left to the exhaustive and sequence checks (z3 bit-blasts binary64 "
+            f"and runs out of memory): {', '.join(left)}"
+        )
+    data = {**(outcome.data or {}), "binary64": left}
+    if outcome.ok:
+        certified = certified_invariants(t)
+        data["certified"] = certified.data
+        note += "; " + certified.detail
+        outcome = replace(outcome, ok=certified.ok)
+    return replace(outcome, detail=outcome.detail + note, data=data)
+
+
+def certified_invariants(t: DataTarget) -> CheckOutcome:
+    """The invariants the engine proves for every param in range, as postconditions of a wrapper of the step
+    with their certificates as precondition, proved by WP from the step's contract (see `codegen.certified`)."""
+    results = check_data_machine(t.machine, Limits(), parametric=True)
+    proved = [
+        Proved(r.prop, r.proof.certificate)
+        for r in results
+        if r.kind == "invariant"
+        and r.verdict == "holds"
+        and r.proof is not None
+        and r.proof.certificate is not None
+        and r.proof.certificate_checked
+    ]
+    lowering = AcslLowering(Lowering(names_of(t.machine, t.ir.module, t.ir.macro), "c"), context_free(t.machine))
+    stated, left = certify(t.machine, lowering, proved)
+    source = t.build / f"{t.ir.module}_certified.c"
+    text = render_template(
+        "data_certified.c.j2",
+        m=t.ir,
+        source=str(t.layout.c_source.resolve()),
+        certified=stated,
+        in_range=ranges(t.machine, "cp", "pp", pointer=True),
+        params_in_range=ranges(t.machine, None, "p", pointer=False),
+    )
+    source.write_text(text, encoding="utf-8")
+    fcts = f"{t.ir.module}_step_certified,{t.ir.module}_init_certified"
+    ran = wp_file(source, t.build, ("-warn-special-float", "none", "-wp-fct", fcts, "-wp-prop=-binary64"))
+    data = {**(ran.data or {}), "stated": [x.id for x in stated], "left": [f"{i}: {why}" for i, why in left]}
+    unproved = [r.prop for r in results if r.kind == "invariant" and r.prop not in data["stated"]]
+    detail = (
+        f"{len(stated)} invariant(s) proved on the step with their certificates ({ran.detail.split(': ')[-1]})"
+        if ran.ok
+        else f"the invariants with their certificates: {ran.detail}"
+    )
+    if unproved:
+        detail += f"; not stated: {', '.join(unproved)}" + (f" ({'; '.join(data['left'])})" if left else "")
+    return CheckOutcome("frama-c-wp", ran.ok, detail, data=data)
+
+
+def binary64_goals(ir: DataIR) -> list[str]:
+    """The ensures clauses WP is not asked to prove: the C functions that compute on reals."""
+    shapes = [f"{ir.module}_shape{sh.index}" for sh in ir.shapes if not sh.exact]
+    defs = [f"{ir.module}_def_{d.name}" for d in ir.definitions if d.name in ir.used and not d.exact]
+    return [f"{name}: ensures" for name in (*shapes, *defs)]
 
 
 def cppcheck(t: DataTarget) -> CheckOutcome:

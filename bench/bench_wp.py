@@ -1,0 +1,125 @@
+"""Frama-C WP goals and time against the size of the spec, for the generated C of both kinds of machine.
+
+Run on demand: `.venv/bin/python bench/bench_wp.py [--quick]`. The size of a spec is its states plus its
+transitions, a `from = "*"` transition counted once per state it leaves. Families, each generated with
+`mlca-verify gen` and proved with the same flags as `mlca-verify conform` (check frama-c-wp):
+- boolean machines: the pedestrian crossing with its minimum green expanded into n states (bench_check.py);
+- machines with data: a chain of n modes, each left after a timer has run (one `int` timer, a reset from
+  every mode), then the pedestrian crossing with a 5 s minimum green as a timer, and MLCA-T.
+For each it prints the goals, the wall time, and both per unit of size: linear growth keeps those two columns
+flat. Wall times are of one run on a noisy 2-core machine; the goal counts are exact.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "bench"))
+
+from bench_check import GREEN, crossing_expanded, crossing_timed  # noqa: E402
+from mlca_verify.codegen import generate  # noqa: E402
+from mlca_verify.conform.checks import wp_file  # noqa: E402
+from mlca_verify.spec import load_spec  # noqa: E402
+
+DATA_FLAGS = ("-warn-special-float", "none", "-wp-prop=-binary64")
+
+
+def chain(n: int) -> str:
+    """n modes in a row, each left for the next once `go` holds and the timer has reached DWELL."""
+    modes = [f"M{k}" for k in range(n)]
+    lines = [
+        "[machine]",
+        'name = "chain"',
+        'initial = "M0"',
+        "states = [" + ", ".join(f'"{s}"' for s in modes) + "]",
+        'semantics = "first-match"',
+        'otherwise = "stay"',
+        "",
+        "[inputs]",
+        'go = { doc = "advance", cite = "bench" }',
+        'stop = { doc = "back to the start", cite = "bench" }',
+        "",
+        "[params]",
+        'DWELL = { type = "int", default = 5, range = [1, 50], unit = "step", doc = "dwell", cite = "bench" }',
+        "",
+        "[variables]",
+        't = { type = "int", initial = 0, range = [0, 100], unit = "step", every = "min(t + 1, 100)", '
+        'doc = "steps in this mode", cite = "bench" }',
+        "",
+        "[[transition]]",
+        'id = "stop"',
+        'from = "*"',
+        f'to = "{modes[0]}"',
+        'when = "stop"',
+        'do = "t = 0"',
+        'cite = "bench"',
+    ]
+    for k, mode in enumerate(modes):
+        lines += [
+            "",
+            "[[transition]]",
+            f'id = "advance{k}"',
+            f'from = "{mode}"',
+            f'to = "{modes[(k + 1) % n]}"',
+            'when = "go and t >= DWELL"',
+            'do = "t = 0"',
+            'cite = "bench"',
+        ]
+    lines += ["", "[[invariant]]", 'id = "timer"', 'expr = "t <= 100"', 'cite = "bench"']
+    return "\n".join(lines) + "\n"
+
+
+def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -> None:
+    if spec is None:
+        spec = work / f"{name}.toml"
+        spec.write_text(text or "", encoding="utf-8")
+    machine = load_spec(spec, compare=False)
+    m = machine.machine
+    size = len(m.states) + sum(sum(1 for s in m.states if t.applies_to(s)) for t in m.transitions)
+    out = work / name
+    files = generate(machine, out)
+    for rel, body in files.items():
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_text(body, encoding="utf-8")
+    c_file = next(out.rglob("*_fsm.c"))
+    module = c_file.name.removesuffix("_fsm.c")
+    extra = (*DATA_FLAGS, "-wp-skip-fct", f"{module}_monitor") if m.has_data else ()
+    build = work / f"{name}_build"
+    build.mkdir()
+    start = time.monotonic()
+    outcome = wp_file(c_file, build, extra)
+    seconds = time.monotonic() - start
+    data = outcome.data or {}
+    proved, goals = data.get("proved", 0), data.get("goals", 0)
+    print(
+        f"{name:<28} {'data' if m.has_data else 'bool':>4} {size:>5} {goals:>6} {proved:>6} {seconds:>8.1f}"
+        f" {goals / size:>9.2f} {seconds / size:>9.3f}",
+        flush=True,
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true", help="smaller families")
+    args = parser.parse_args()
+    expanded = (3, 6, 12) if args.quick else (3, 6, 12, 24, 48)
+    chains = (2, 4, 8) if args.quick else (2, 4, 8, 16)
+    head = ("spec", "kind", "size", "goals", "proved", "wp (s)", "goals/size", "s/size")
+    print(f"{head[0]:<28} " + " ".join(f"{h:>{w}}" for h, w in zip(head[1:], (4, 5, 6, 6, 8, 9, 9), strict=True)))
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        for n in expanded:
+            measure(f"crossing_expanded_{n}", crossing_expanded(n), work)
+        for n in chains:
+            measure(f"chain_{n}", chain(n), work)
+        measure(f"crossing_timed_{GREEN}", crossing_timed(GREEN), work)
+        measure("mlca_t", None, work, ROOT / "spec" / "mlca_t.toml")
+
+
+if __name__ == "__main__":
+    main()

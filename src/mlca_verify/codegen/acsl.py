@@ -1,0 +1,162 @@
+"""Expressions of a machine with data as ACSL, the logic the generated C's contracts are written in.
+
+The logic reads the same view as the code (`lower`), but as values: the context `c`, the inputs `i` and the
+params `p` are structs, not pointers. Booleans are predicates; ints are mathematical integers (WP proves that no
+C operation on them overflows, so the two agree); each operation on reals is rounded to binary64 with a cast, as
+the C computes it. A definition is a logic function (a predicate when boolean) of the context, inputs and params.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from fractions import Fraction
+
+from mlca_verify.codegen.lower import Lowering, real_literal
+from mlca_verify.model import (
+    Arith,
+    BinOp,
+    Call,
+    Cmp,
+    Const,
+    Expr,
+    Ite,
+    Machine,
+    Neg,
+    Not,
+    Num,
+    Prev,
+    StateIn,
+    Type,
+    Var,
+    nodes,
+)
+
+CONNECTIVES = {"and": "&&", "or": "||", "->": "==>", "<->": "<==>"}
+
+
+def context_free(m: Machine) -> frozenset[str]:
+    """The definitions that read neither the mode nor a variable, directly or through other definitions: their
+    logic functions take only the inputs and params, so that one value read before and after a step is
+    visibly the same term (a prover cannot see it through a function without a body)."""
+    free: set[str] = set()
+    variables = {v.name for v in m.variables}
+    for d in m.definitions:  # in dependency order
+        names = [x.name for x in nodes(d.expr) if isinstance(x, Var)]
+        reads_mode = any(isinstance(x, StateIn) for x in nodes(d.expr))
+        defs = {x.name for x in m.definitions}
+        if not reads_mode and all(n not in variables and (n not in defs or n in free) for n in names):
+            free.add(d.name)
+    return frozenset(free)
+
+
+class AcslLowering(Lowering):
+    """ACSL text of expressions over the logic view `c`, `i`, `p` (and `o` for outputs)."""
+
+    def __init__(self, lowering: Lowering, free: frozenset[str] = frozenset()) -> None:
+        super().__init__(lowering.n, "acsl")
+        self.free = free  # the definitions that take no context (see `context_free`)
+
+    def args(self, definition: str, c: str = "c", i: str = "i", p: str = "p") -> str:
+        """The arguments of a definition's logic function."""
+        return f"{i}, {p}" if definition in self.free else f"{c}, {i}, {p}"
+
+    def go(self, e: Expr, prevs: Mapping[Prev, str] | None = None) -> str:
+        if isinstance(e, Const):
+            return "\\true" if e.value else "\\false"
+        if isinstance(e, Num):
+            return self.number(e)
+        if isinstance(e, Var):
+            return self.name(e.name)
+        if isinstance(e, StateIn):
+            tests = [f"(c.mode == {self.state(s)})" for s in e.states]
+            return tests[0] if len(tests) == 1 else "(" + " || ".join(tests) + ")"
+        if isinstance(e, Not):
+            return f"(!{self.go(e.arg, prevs)})"
+        if isinstance(e, BinOp):
+            return f"({self.go(e.left, prevs)} {CONNECTIVES[e.op]} {self.go(e.right, prevs)})"
+        if isinstance(e, Prev):
+            if prevs is None:
+                raise ValueError("prev() outside a property")
+            return prevs[e]
+        return self.data(e, prevs)
+
+    def data(self, e: Expr, prevs: Mapping[Prev, str] | None) -> str:
+        if isinstance(e, Neg):
+            if isinstance(e.arg, Num):
+                return self.number(e.arg, negative=True)
+            return f"(-{self.go(e.arg, prevs)})"
+        if isinstance(e, Ite):
+            kind = self.type_of(e)
+            cond, a, b = self.go(e.cond, prevs), self.as_type(e.then, kind, prevs), self.as_type(e.other, kind, prevs)
+            return f"({cond} ? {a} : {b})"
+        if isinstance(e, Cmp):
+            both: Type | None = "real" if "real" in (self.type_of(e.left), self.type_of(e.right)) else None
+            return f"({self.as_type(e.left, both, prevs)} {e.op} {self.as_type(e.right, both, prevs)})"
+        if isinstance(e, Call):
+            return self.call(e, prevs)
+        assert isinstance(e, Arith)
+        kind = self.type_of(e)
+        a, b = self.as_type(e.left, kind, prevs), self.as_type(e.right, kind, prevs)
+        return f"(double)({a} {e.op} {b})" if kind == "real" else f"({a} {e.op} {b})"
+
+    def as_type(self, e: Expr, kind: Type | None, prevs: Mapping[Prev, str] | None) -> str:
+        text = self.go(e, prevs)
+        if kind == "real" and self.type_of(e) == "int":
+            return self.real(Fraction(e.value)) if isinstance(e, Num) else f"(double){text}"
+        return text
+
+    def call(self, e: Call, prevs: Mapping[Prev, str] | None) -> str:
+        if e.fn == "valid":
+            arg = e.args[0]
+            assert isinstance(arg, Var)
+            return self.valid(arg.name)
+        kind = self.type_of(e)
+        args = [self.as_type(a, kind, prevs) for a in e.args]
+        if e.fn == "abs":
+            zero = "0.0" if kind == "real" else "0"
+            return f"(({args[0]} >= {zero}) ? {args[0]} : (-{args[0]}))"
+        op = "<" if e.fn == "min" else ">"
+        text = args[0]
+        for a in args[1:]:  # as the C helpers: keep the running result unless the next argument is smaller (larger)
+            text = f"(({a} {op} {text}) ? {a} : {text})"
+        return text
+
+    def valid(self, signal: str) -> str:
+        low, high = self.n.ranges[signal]
+        kind = self.n.types[signal]
+        lo, hi = (self.real(v) if kind == "real" else str(int(v)) for v in (low, high))
+        x = self.name(signal)
+        return f"(({lo} <= {x}) && ({x} <= {hi}))"
+
+    def number(self, e: Num, negative: bool = False) -> str:
+        value = -e.value if negative else e.value
+        if e.real or value.denominator != 1:
+            return self.real(value)
+        return str(int(value))
+
+    @staticmethod
+    def real(value: Fraction) -> str:
+        """The binary64 the C reads for this constant: written as is when exact, else rounded with a cast."""
+        text = real_literal(value)
+        return text if Fraction(float(value)) == value else f"((double){text})"
+
+    def state(self, s: str) -> str:
+        return f"{self.n.macro}_{s}"
+
+    def name(self, name: str) -> str:
+        kind = self.n.kinds[name]
+        if kind == "input":
+            return f"(i.{name} != 0)"
+        if kind == "signal":
+            return f"i.{name}"
+        if kind == "param":
+            return f"p.{name}"
+        if kind == "variable":
+            return f"c.{name}"
+        if kind == "arg":
+            return name
+        if kind == "definition":
+            return f"{self.n.prefix}_l_{name}({self.args(name)})"
+        if self.n.types[name] == "bool":
+            return f"(o.{name} != 0)"
+        return f"o.{name}"

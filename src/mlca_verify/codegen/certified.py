@@ -1,0 +1,246 @@
+"""The spec's proved invariants as contracts of the generated C, each with its certificate as precondition.
+
+For every invariant the engine proves for all params in range, with a certificate a separate query confirmed
+(an inductive invariant over the mode, the variables, the `prev()` registers and the first-step flag), this
+module writes the certificate and the invariant in ACSL. `conform` puts them on a wrapper of the step in a proof
+file of its own (the certificates come from the solver, so they stay out of the checked-in code): WP then
+proves, from the step's own contract, that a step from a context satisfying the certificates keeps them and
+leaves every such invariant true, and that the initial context satisfies them.
+
+A certificate is read from its SMT-LIB text (the `certificate` of the check's JSON); a symbol that is not part of
+the C context (a bounded response's counter) leaves that invariant out, with the reason.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+
+from mlca_verify.codegen.acsl import AcslLowering
+from mlca_verify.codegen.data_ir import binary64
+from mlca_verify.model import Machine, Prev, Type, prevs_of
+
+Sexpr = str | list["Sexpr"]
+_TOKEN = re.compile(r"\(|\)|[^\s()]+")
+MAX_TOKENS = 100_000
+
+
+class Untranslatable(ValueError):
+    """The certificate reads something the C context does not hold."""
+
+
+def parse(text: str) -> Sexpr:
+    tokens = _TOKEN.findall(text)
+    if len(tokens) > MAX_TOKENS:
+        raise Untranslatable(f"certificate of {len(tokens)} tokens")
+    stack: list[list[Sexpr]] = [[]]
+    for tok in tokens:
+        if tok == "(":
+            stack.append([])
+        elif tok == ")":
+            if len(stack) < 2:
+                raise Untranslatable("unbalanced certificate")
+            done = stack.pop()
+            stack[-1].append(done)
+        else:
+            stack[-1].append(tok)
+    if len(stack) != 1 or len(stack[0]) != 1:
+        raise Untranslatable("malformed certificate")
+    return stack[0][0]
+
+
+_BOOL_OPS = {"and", "or", "not", "=>", "<=", ">=", "<", ">", "=", "true", "false", "distinct"}
+
+
+@dataclass(frozen=True)
+class Frame:
+    """How the engine's frame symbols read in ACSL over the context `c` and params `p` (struct values)."""
+
+    terms: Mapping[str, tuple[str, Type]]  # symbol -> (ACSL term, type)
+
+
+def frame_of(m: Machine, prev_index: Mapping[Prev, int], inv_prevs: Sequence[Prev], types: Sequence[Type]) -> Frame:
+    terms: dict[str, tuple[str, Type]] = {"mode@p0": ("c.mode", "int"), "first@p0": ("c.first", "bool")}
+    for v in m.variables:
+        terms[f"{v.name}@p0"] = (f"c.{v.name}", v.type)
+    for j, prev in enumerate(inv_prevs):
+        terms[f"prev{j}@p0"] = (f"c.prev{prev_index[prev]}", types[j])
+    for p in m.params:
+        terms[f"param!{p.name}"] = (f"p.{p.name}", p.type)
+    return Frame(terms)
+
+
+class Translate:
+    """One certificate as an ACSL predicate over `c` and `p`."""
+
+    def __init__(self, frame: Frame) -> None:
+        self.frame = frame
+        self.lets: dict[str, tuple[str, bool]] = {}  # name -> (ACSL text, is a predicate)
+
+    def pred(self, e: Sexpr) -> str:
+        text, is_pred = self.go(e)
+        return text if is_pred else f"({text} != 0)"
+
+    def term(self, e: Sexpr) -> str:
+        text, is_pred = self.go(e)
+        if is_pred:
+            raise Untranslatable("a boolean where a number is expected")
+        return text
+
+    def go(self, e: Sexpr) -> tuple[str, bool]:
+        if isinstance(e, str):
+            return self.atom(e)
+        if not e or not isinstance(e[0], str):
+            raise Untranslatable("malformed certificate")
+        op, args = e[0], e[1:]
+        if op == "let":
+            return self.let(args)
+        if op in ("and", "or", "not", "=>", "=", "ite"):
+            return self.logical(op, args)
+        return self.arithmetic(op, args)
+
+    def logical(self, op: str, args: list[Sexpr]) -> tuple[str, bool]:
+        if op in ("and", "or"):
+            if not args:
+                return ("\\true" if op == "and" else "\\false"), True
+            return "(" + f" {'&&' if op == 'and' else '||'} ".join(self.pred(a) for a in args) + ")", True
+        if op == "not":
+            return f"(!{self.pred(args[0])})", True
+        if op == "=>":
+            return f"({self.pred(args[0])} ==> {self.pred(args[1])})", True
+        if op == "=":
+            return self.equal(args[0], args[1])
+        return self.ite(args)
+
+    def arithmetic(self, op: str, args: list[Sexpr]) -> tuple[str, bool]:
+        if op in ("<=", ">=", "<", ">"):
+            return f"({self.term(args[0])} {op} {self.term(args[1])})", True
+        if op in ("+", "*"):
+            return "(" + f" {op} ".join(self.term(a) for a in args) + ")", False
+        if op == "-":
+            if len(args) == 1:
+                return f"(-{self.term(args[0])})", False
+            return "(" + " - ".join(self.term(a) for a in args) + ")", False
+        if op == "/" and len(args) == 2:
+            return f"({self.term(args[0])} / {self.term(args[1])})", False
+        if op == "to_real" and len(args) == 1:
+            return f"((real){self.term(args[0])})", False
+        raise Untranslatable(f"operator {op!r}")
+
+    def atom(self, name: str) -> tuple[str, bool]:
+        if name in ("true", "false"):
+            return f"\\{name}", True
+        if name in self.lets:
+            return self.lets[name]
+        if re.fullmatch(r"\d+", name):
+            return name, False
+        if re.fullmatch(r"\d+\.\d+", name):
+            return _real(Fraction(name)), False
+        if name in self.frame.terms:
+            text, kind = self.frame.terms[name]
+            return (f"({text} != 0)", True) if kind == "bool" else (text, False)
+        raise Untranslatable(f"symbol {name!r} is not in the C context")
+
+    def let(self, args: list[Sexpr]) -> tuple[str, bool]:
+        bindings, body = args[0], args[1]
+        if not isinstance(bindings, list):
+            raise Untranslatable("malformed let")
+        for binding in bindings:
+            if not isinstance(binding, list) or len(binding) != 2 or not isinstance(binding[0], str):
+                raise Untranslatable("malformed let")
+            self.lets[binding[0]] = self.go(binding[1])
+        return self.go(body)
+
+    def equal(self, a: Sexpr, b: Sexpr) -> tuple[str, bool]:
+        left, right = self.go(a), self.go(b)
+        if left[1] or right[1]:
+            return f"({self.pred(a)} <==> {self.pred(b)})", True
+        return f"({left[0]} == {right[0]})", True
+
+    def ite(self, args: list[Sexpr]) -> tuple[str, bool]:
+        cond = self.pred(args[0])
+        then, other = self.go(args[1]), self.go(args[2])
+        if then[1] or other[1]:
+            return f"({cond} ? {self.pred(args[1])} : {self.pred(args[2])})", True
+        return f"({cond} ? {then[0]} : {other[0]})", False  # a predicate condition in a term: ACSL allows it
+
+
+def _real(value: Fraction) -> str:
+    return f"({value.numerator}.0 / {value.denominator}.0)" if value.denominator != 1 else f"{value.numerator}.0"
+
+
+@dataclass(frozen=True)
+class Certified:
+    """An invariant the proof file states: its id, the certificate and the invariant in ACSL."""
+
+    index: int
+    id: str
+    certificate: str  # over c, p
+    invariant: str  # over c, i, p, o (after the step) and the prev values
+    cite: str
+
+
+def invariant_text(lowering: AcslLowering, expr: object, prev_index: Mapping[Prev, int], prefix: str) -> str:
+    """The invariant over the context after the step; prev(e) is e over the context before it, or at the first
+    step e over that same context (as the engine and the monitor read it)."""
+    assert not isinstance(expr, str)
+    prevs: dict[Prev, str] = {}
+    for prev in prevs_of(expr):  # type: ignore[arg-type]
+        k = prev_index[prev]
+        fresh = f"{prefix}_l_prev{k}(\\at(*cp, Pre), i, p)"
+        if lowering.type_of(prev.arg) == "bool":
+            prevs[prev] = f"((\\at(cp->first, Pre) != 0) ? {fresh} : (\\at(cp->prev{k}, Pre) != 0))"
+        else:
+            prevs[prev] = f"(\\at(cp->first, Pre) ? {fresh} : \\at(cp->prev{k}, Pre))"
+    return lowering.go(expr, prevs)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Proved:
+    """What the engine proved of one invariant: its id and certificate (SMT-LIB), for every param in range."""
+
+    id: str
+    certificate: str
+
+
+def certify(
+    m: Machine, lowering: AcslLowering, proved: Sequence[Proved]
+) -> tuple[list[Certified], list[tuple[str, str]]]:
+    """The invariants stated with their certificates, and those left out with the reason."""
+    prev_index = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
+    by_id = {inv.id: inv for inv in m.invariants}
+    stated: list[Certified] = []
+    left: list[tuple[str, str]] = []
+    for item in proved:
+        inv = by_id[item.id]
+        if binary64(inv.expr, lowering.n.types):
+            left.append((inv.id, "it compares binary64 values, which z3 bit-blasts; the exhaustive checks cover it"))
+            continue
+        own = prevs_of(inv.expr)
+        frame = frame_of(m, prev_index, own, [lowering.type_of(p.arg) for p in own])
+        try:
+            certificate = Translate(frame).pred(parse(item.certificate))
+        except (Untranslatable, IndexError) as err:
+            left.append((inv.id, str(err) or "malformed certificate"))
+            continue
+        text = invariant_text(lowering, inv.expr, prev_index, lowering.n.prefix)
+        stated.append(Certified(len(stated), inv.id, certificate, text, inv.cite))
+    return stated, left
+
+
+def ranges(m: Machine, c: str | None, p: str, pointer: bool) -> str:
+    """The int variables (none without `c`) and int params in their ranges, over `c` and `p` (pointers or
+    struct values). The real params' ranges are left out, as in the step's own contract: a binary64 term among
+    the hypotheses makes z3 bit-blast (see `codegen.data_ir.binary64`)."""
+    dot = "->" if pointer else "."
+    parts = [
+        f"{int(v.range[0])} <= {c}{dot}{v.name} <= {int(v.range[1])}"
+        for v in m.variables
+        if c is not None and v.type == "int" and v.range is not None
+    ]
+    for q in m.params:
+        if q.range is not None and q.type == "int":
+            parts.append(f"{int(q.range[0])} <= {p}{dot}{q.name} <= {int(q.range[1])}")
+    return " && ".join(parts) or "\\true"
