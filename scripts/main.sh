@@ -9,7 +9,7 @@
 #      controllers and every comparison model, one and three AVs, two seeds each (out/sim.sqlite; runs already
 #      there are kept), and draw it beside the paper's figures (out/comparison/report.md);
 #   5. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
-#      spec-level evidence of MLCA-T, the machine with data (out/evidence_t/index.html).
+#      evidence of MLCA-T, the machine with data, its proofs and its generated code (out/evidence_t/index.html).
 # Reports go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."

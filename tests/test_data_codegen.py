@@ -185,6 +185,18 @@ def test_embedding_examples_build_and_run(tmp_path: Path) -> None:
     assert "tick 30: IDLE         command +0" in loop.stdout
 
 
+def _red_then_green(tmp_path: Path, buggy: Path, test_py: Path, test_c: Path) -> None:
+    """The emitted tests fail on the code generated from the buggy spec and pass on MLCA-T's."""
+    pytest_cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(test_py)]
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False).returncode == 1
+    env = {**os.environ, "MLCA_T_FSM": str(GENERATED / "python" / "mlca_t_fsm.py")}
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False, env=env).returncode == 0
+    for folder, expected in ((buggy / "c", 1), (GENERATED / "c", 0)):
+        exe = tmp_path / f"{test_c.stem}{expected}"
+        subprocess.run(["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{folder}", "-o", str(exe), str(test_c)], check=True)
+        assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == expected
+
+
 def test_emitted_tests_are_red_on_the_buggy_code_and_green_on_the_repaired(tmp_path: Path) -> None:
     """The planted fast timer: its counterexample (with its signals and T_MIN = 3) becomes a pytest and a C test
     that fail on the code generated from the buggy spec and pass on MLCA-T's."""
@@ -192,16 +204,25 @@ def test_emitted_tests_are_red_on_the_buggy_code_and_green_on_the_repaired(tmp_p
     buggy, out = tmp_path / "buggy", tmp_path / "emitted"
     assert main(["gen", str(fixture), "--out", str(buggy)]) == 0
     assert main(["check", str(fixture), "--quiet", "--emit-tests", str(out), "--generated", str(buggy)]) == 1
-    test_py, test_c = out / "test_mlca_t_deferral.py", out / "test_mlca_t_deferral.c"
-    pytest_cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(test_py)]
-    assert subprocess.run(pytest_cmd, capture_output=True, check=False).returncode == 1
-    env = {**os.environ, "MLCA_T_FSM": str(GENERATED / "python" / "mlca_t_fsm.py")}
-    assert subprocess.run(pytest_cmd, capture_output=True, check=False, env=env).returncode == 0
-    for folder, expected in ((buggy / "c", 1), (GENERATED / "c", 0)):
-        exe = tmp_path / f"t{expected}"
-        cc = ["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{folder}", "-o", str(exe), str(test_c)]
-        subprocess.run([*cc, str(folder / "mlca_t_fsm.c")], check=True)
-        assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == expected
+    _red_then_green(tmp_path, buggy, out / "test_mlca_t_deferral.py", out / "test_mlca_t_deferral.c")
+
+
+def test_an_emitted_liveness_test_catches_a_livelock(tmp_path: Path) -> None:
+    """Without Alg. 1's repair (no move out of WAITING once the timer has run out) a need with a safe gap waits
+    forever: the bounded response `no-livelock` (within T_MIN + 2) fails, and its counterexample, replayed with
+    the response counted as the engine counts it, is red on that code and green on MLCA-T's."""
+    text = SPEC.read_text()
+    for tid in ("wait_left", "wait_right"):
+        start = text.index(f'[[transition]]\nid = "{tid}"')
+        text = text[:start] + text[text.index("[[transition]]", start + 1) :]
+    spec = tmp_path / "mlca_t.toml"
+    spec.write_text(text)
+    buggy, out = tmp_path / "buggy", tmp_path / "emitted"
+    assert main(["gen", str(spec), "--out", str(buggy)]) == 0
+    assert main(["check", str(spec), "--quiet", "--emit-tests", str(out), "--generated", str(buggy)]) == 1
+    test_py = out / "test_mlca_t_no_livelock.py"
+    assert "BOUND = " in test_py.read_text()
+    _red_then_green(tmp_path, buggy, test_py, out / "test_mlca_t_no_livelock.c")
 
 
 def test_one_rule_over_different_signals_is_generated_once() -> None:
@@ -264,3 +285,49 @@ def test_a_machine_without_params_outputs_or_invariants_generates_clean_code(tmp
     checks = ["compile", "exhaustive", "sequences", "sanitizers", "cppcheck", "cortex-m4"]
     outcomes = conform(load_spec(spec, compare=False), tmp_path / "generated", checks, lambda _: None).outcomes
     assert all(o.ok for o in outcomes), [(o.name, o.detail[:300]) for o in outcomes if not o.ok]
+
+
+LASSO = """[machine]
+name = "LOOPY"
+initial = "A"
+states = ["A", "B"]
+[inputs]
+go = {{ doc = "go" }}
+[variables]
+t = {{ type = "int", initial = 0, range = [0, 3], every = "0", doc = "always 0" }}
+[[transition]]
+id = "leave"
+from = "A"
+to = "B"
+when = "{when}"
+[[liveness]]
+id = "leaves"
+assume = "go"
+goal = "state == B"
+"""
+
+
+def test_an_emitted_lasso_test_catches_a_response_that_never_comes(tmp_path: Path) -> None:
+    """An unbounded response violated by a lasso (the loop repeated three times in the replay): red on the code
+    whose guard can never hold, green on the code whose guard is the assumption."""
+    emitted = tmp_path / "emitted"
+    for name, when in (("buggy", "go and t > 2"), ("fixed", "go")):
+        spec = tmp_path / f"{name}.toml"
+        spec.write_text(LASSO.format(when=when))
+        assert main(["gen", str(spec), "--out", str(tmp_path / name)]) == 0
+        if name == "buggy":
+            assert (
+                main(["check", str(spec), "--quiet", "--emit-tests", str(emitted), "--generated", str(tmp_path / name)])
+                == 1
+            )
+    test_py, test_c = emitted / "test_loopy_leaves.py", emitted / "test_loopy_leaves.c"
+    assert "CHECK_FROM = " in test_py.read_text() and "BOUND" not in test_py.read_text()
+    pytest_cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(test_py)]
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False).returncode == 1
+    env = {**os.environ, "LOOPY_FSM": str(tmp_path / "fixed" / "python" / "loopy_fsm.py")}
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False, env=env).returncode == 0
+    for name, expected in (("buggy", 1), ("fixed", 0)):
+        exe = tmp_path / f"lasso_{name}"
+        cc = ["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{tmp_path / name / 'c'}", "-o", str(exe), str(test_c)]
+        subprocess.run(cc, check=True)
+        assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == expected

@@ -18,8 +18,9 @@ import pytest
 from markupsafe import escape
 from playwright.sync_api import sync_playwright
 
-from mlca_verify.cli import NO_DATA_LOOP, main
-from mlca_verify.evidence import ClosedLoopRuns
+from mlca_verify.cli import main
+from mlca_verify.conform.data import DATA_CHECKS
+from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns
 from mlca_verify.evidence.collect import closed_loop
 from mlca_verify.model import show
 from mlca_verify.spec import load_spec
@@ -178,11 +179,10 @@ def test_mlca_verify_imports_no_sim_check_and_holds_no_sql() -> None:
     assert [p.name for p in sources if re.search(r"\bsqlite3\b|\bSELECT\b", p.read_text(encoding="utf-8"))] == []
 
 
-# --- a machine with data (spec/mlca_t.toml): the spec's own evidence, no claim about code ---------------------
+# --- a machine with data (spec/mlca_t.toml): its proofs, params and assumptions, and its generated code -------
 
 MLCA_T = "spec/mlca_t.toml"
 HOSTILE = '</td><script>alert("doc")</script><img src=x onerror=alert(1)>&amp; {{ d.ok }}'
-NO_CODE_WORDS = re.compile(r"\b(code|generated|C|Python|Frama-C|closed-loop)\b")
 
 
 def _escaped(text: str) -> str:
@@ -237,14 +237,7 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
         assert proof["certificate"] and proof["certificate_checked"] is True
         assert all(prop in relied[a] for a in proof["assumptions"])
     assert "proof" not in proofs["determinism"]
-    # the spec's evidence: no conformance, no artifacts, no closed loop, and the argument claims nothing of code
-    assert doc["conformance"] == [] and doc["artifacts"] == [] and doc["generated_code"]["available"] is False
-    assert doc["closed_loop"]["status"] == "undeveloped"
-    assert all(r["code"] == [] and r["tests"] == [] for r in doc["traceability"])
-    assert not any(p["path"].startswith("templates/") for p in doc["inputs"])
     nodes = {n["id"]: n for n in doc["argument"]}
-    claims = [n for n in doc["argument"] if n["type"] in ("goal", "undeveloped", "solution", "strategy")]
-    assert [n["text"] for n in claims if NO_CODE_WORDS.search(n["text"])] == []
     assert "for every param value in range" in nodes["G1"]["text"]
     g3 = nodes["G3"]
     assert "every param value" in g3["text"] and g3["ok"] is True
@@ -254,12 +247,30 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
     assert [n["text"].split(":")[0] for n in assumptions] == [a.id for a in m.assumptions]
     assert [n["link"] for n in assumptions] == [f"#assume-{a.id}" for a in m.assumptions]
     html = (data_bundles[0] / "index.html").read_text()
-    assert "checked by <code>mlca-verify conform</code>" in html or "checked by `mlca-verify conform`" in html
     assert all(f'id="assume-{a.id}"' in html for a in m.assumptions) and 'id="param-T_MIN"' in html
     assert "confirmed by a separate query" in html
     for prop in declared:  # the certificate itself, escaped as all text is
         assert _escaped(proofs[prop]["proof"]["certificate"]) in html
-    assert ">pass<" not in html and "frama-c-wp" not in html
+    assert ">pass<" in html and 'id="check-frama-c-wp"' in html and ">FAIL<" not in html
+
+
+def test_data_machine_bundle_packages_its_generated_code(data_bundles: tuple[Path, Path]) -> None:
+    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+    # the generated code: every conformance check of a machine with data, the files, the lines of each element
+    assert [c["name"] for c in doc["conformance"]] == ["up-to-date", *DATA_CHECKS] and all(
+        c["ok"] for c in doc["conformance"]
+    )
+    wp = next(c for c in doc["conformance"] if c["name"] == "frama-c-wp")["data"]
+    assert wp["certified"]["stated"] and wp["binary64"]
+    assert {a["kind"] for a in doc["artifacts"]} == {"python", "c-header", "c-source"}
+    rows = {r["element"]: r for r in doc["traceability"]}
+    assert rows["transition wait_left"]["code"] and "conform: frama-c-wp" in rows["transition wait_left"]["tests"]
+    assert any(p["path"] == "templates/data_c.c.j2" for p in doc["inputs"])
+    assert doc["closed_loop"]["status"] == "undeveloped"
+    nodes = {n["id"]: n for n in doc["argument"]}
+    assert nodes["G4"]["ok"] is True and nodes["G5"]["ok"] is True and nodes["G6"]["ok"] is True
+    assert [n["text"].split(":")[0] for n in doc["argument"] if n["parent"] == "S5"] == list(DATA_CHECKS)
+    assert nodes["G7"]["type"] == "undeveloped" and "does not drive" in nodes["G7"]["text"]
 
 
 def test_data_machine_bundles_differ_only_in_the_timestamp(data_bundles: tuple[Path, Path]) -> None:
@@ -300,18 +311,38 @@ def test_data_machine_page_loads_in_chromium_and_every_link_resolves(data_bundle
 
 
 def test_hostile_text_in_a_data_machine_reaches_the_page_escaped(tmp_path: Path) -> None:
-    text = (ROOT / MLCA_T).read_text()
     hostile = json.dumps(HOSTILE)  # a TOML basic string holding it
-    param = f'HOSTILE_P = {{ type = "real", default = 1.5, range = [0.25, 2.0], unit = "m", doc = {hostile}, cite = {hostile} }}'
-    assert text.count("[params]\n") == 1
-    text = (
-        text.replace("[params]\n", f"[params]\n{param}\n")
-        + f'\n[[assume]]\nid = "hostile"\nexpr = "true"\ndoc = {hostile}\ncite = {hostile}\n'
-    )
     spec = tmp_path / "hostile.toml"
-    spec.write_text(text)
-    out = tmp_path / "out"
-    assert main(["evidence", str(spec), "--out", str(out)]) == 0
+    spec.write_text(
+        f"""[machine]
+name = "H"
+initial = "A"
+states = ["A", "B"]
+cite = "test"
+[inputs]
+go = {{ doc = "go", cite = "test" }}
+[params]
+HOSTILE_P = {{ type = "real", default = 1.5, range = [0.25, 2.0], unit = "m", doc = {hostile}, cite = {hostile} }}
+[signals]
+d = {{ type = "real", unit = "m", range = [0.0, 10.0], doc = "a distance", cite = "test" }}
+[definitions]
+near = {{ expr = "d < HOSTILE_P", doc = "near", cite = "test" }}
+[[transition]]
+id = "t"
+from = "A"
+to = "B"
+when = "go and near"
+cite = "test"
+[[assume]]
+id = "hostile"
+expr = "true"
+doc = {hostile}
+cite = {hostile}
+"""
+    )
+    out, generated = tmp_path / "out", tmp_path / "generated"
+    assert main(["gen", str(spec), "--out", str(generated)]) == 0
+    assert main(["evidence", str(spec), "--out", str(out), "--generated", str(generated)]) == 0
     doc = json.loads((out / "evidence.json").read_text())
     assert doc["data_machine"]["params"][0] == {
         "name": "HOSTILE_P", "type": "real", "default": "1.5", "range": ["0.25", "2.0"], "unit": "m", "doc": HOSTILE,

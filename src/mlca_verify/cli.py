@@ -23,7 +23,7 @@ from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
-from mlca_verify.evidence import ClosedLoopRuns, collect, loop_controllers, write_bundle
+from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.induction import Limits
@@ -111,9 +111,6 @@ def _parser() -> argparse.ArgumentParser:
         "spec/paper/*.toml; for another spec: none)",
     )
     return parser
-
-
-NO_DATA_LOOP = "the closed loop does not run the generated code of machines with data yet"
 
 
 def say(*parts: object, **options: Any) -> None:
@@ -344,11 +341,11 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         raise UsageError(f"{db}: error: results database not found")
     writable_folder(Path(args.out))
     spec = load_spec(args.spec, confine=not args.allow_outside)
-    if spec.machine.has_data and db is not None:  # the bundle of a machine with data covers the spec alone
+    if spec.machine.has_data and db is not None:
         raise UsageError(f"{db}: error: {NO_DATA_LOOP}")
     work = "proofs, conformance (Frama-C takes a few seconds), readings"
     if spec.machine.has_data:
-        work = "proofs and readings (the spec's evidence: `mlca-verify conform` checks its generated code)"
+        work = "proofs, conformance (Frama-C WP takes about a minute), readings"
     say(f"collecting evidence for {args.spec}: {work}", flush=True)
     runs = None
     if db is not None:  # read through the results database's API, before the long work starts

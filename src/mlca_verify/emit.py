@@ -15,11 +15,11 @@ from fractions import Fraction
 from pathlib import Path
 
 from mlca_verify.codegen.data_ir import DataIR, build_data_ir
-from mlca_verify.codegen.lower import real_literal
+from mlca_verify.codegen.lower import Lowering, names_of, real_literal
 from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
 from mlca_verify.logic.results import Counterexample, Result
-from mlca_verify.model import Expr, Liveness, Machine, show
+from mlca_verify.model import Expr, Liveness, Machine, Num, prevs_of, show
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.targets import Layout
 
@@ -99,15 +99,14 @@ def _value_c(value: object, ctype: str) -> str:
 
 
 def data_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[str, str] | None:
-    """A pytest and a C test replaying a violated invariant or range check of a machine with data, with every
-    signal and param value of its counterexample; None for the other checks."""
+    """A pytest and a C test replaying a violated invariant, range check or liveness property of a machine with
+    data, with every signal and param value of its counterexample; None for the other checks."""
     cx = result.counterexample
     m = spec.machine
-    if cx is None or result.verdict != "violated" or result.kind not in ("invariant", "range"):
+    if cx is None or result.verdict != "violated" or result.kind not in ("invariant", "range", "liveness"):
         return None
     ctypes = {f.name: f.ctype for f in (*_ir(spec).signals, *_ir(spec).params)}
-    steps = [{**s.inputs, **s.signals} for s in cx.steps]
-    names = [*m.input_names, *(sig.name for sig in m.signals)]
+    steps: list[dict[str, object]] = [{**s.inputs, **s.signals} for s in cx.steps]
     values: dict[str, object] = {
         "spec_path": spec.path,
         "sha256": spec.sha256,
@@ -120,13 +119,10 @@ def data_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[str,
         "env_var": f"{m.name.upper()}_FSM",
         "module_path": module_path,
         "test_name": c_ident(result.prop),
-        "steps": [Escaped("{" + ", ".join(f"{n!r}: {_value_py(step[n])}" for n in names) + "}") for step in steps],
-        "c_steps": [
-            Escaped(", ".join(f".{n} = {_value_c(step[n], ctypes.get(n, 'bool'))}" for n in names)) for step in steps
-        ],
         "params": Escaped("{" + ", ".join(f"{k!r}: {_value_py(v)}" for k, v in cx.params.items()) + "}"),
         "c_params": Escaped(", ".join(_value_c(cx.params[p.name], ctypes[p.name]) for p in m.params) or "0"),
         "index": next((k for k, inv in enumerate(m.invariants) if inv.id == result.prop), 0),
+        "check_from": 0,
     }
     if result.kind == "range":
         variable = next(v for v in m.variables if f"range:{v.name}" == result.prop)
@@ -137,7 +133,41 @@ def data_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[str,
             low=Escaped(_value_c(variable.range[0] if kind == "double" else int(variable.range[0]), kind)),
             high=Escaped(_value_c(variable.range[1] if kind == "double" else int(variable.range[1]), kind)),
         )
+    if result.kind == "liveness":
+        live = next(p for p in m.liveness if p.id == result.prop)
+        if prevs_of(live.assume, live.goal):
+            return None  # prev() in a response is not replayed: the test would need the engine's registers
+        steps = _liveness_values(values, m, live, cx, steps)
+    names = [*m.input_names, *(sig.name for sig in m.signals)]
+    values["steps"] = [Escaped("{" + ", ".join(f"{n!r}: {_value_py(s[n])}" for n in names) + "}") for s in steps]
+    values["c_steps"] = [
+        Escaped(", ".join(f".{n} = {_value_c(s[n], ctypes.get(n, 'bool'))}" for n in names)) for s in steps
+    ]
     return render_template("data_emitted_test.py.j2", **values), render_template("data_emitted_test.c.j2", **values)
+
+
+def _liveness_values(
+    values: dict[str, object], m: Machine, live: Liveness, cx: Counterexample, steps: list[dict[str, object]]
+) -> list[dict[str, object]]:
+    """The assumption, goal and bound in both languages (over the context after a step, its inputs, the params
+    and outputs), and the steps to replay: a lasso's loop is repeated."""
+    names = names_of(m, m.name.lower(), m.name.upper())
+    py, c = Lowering(names, "py"), Lowering(names, "c")
+    bound = live.bound if live.bound is not None else None
+    if bound is None and live.within is not None:
+        bound = Num(Fraction(live.within), False)
+    values.update(
+        assume_py=py.go(live.assume),
+        goal_py=py.go(live.goal),
+        assume_c=Escaped(c.go(live.assume)),
+        goal_c=Escaped(c.go(live.goal)),
+        bound_py=None if bound is None else py.go(bound),
+        bound_c=Escaped("" if bound is None else c.go(bound)),
+    )
+    if cx.loop_start is None:
+        return steps
+    values["check_from"] = cx.loop_start
+    return steps[: cx.loop_start] + steps[cx.loop_start :] * LOOP_REPEATS
 
 
 def _ir(spec: LoadedSpec) -> DataIR:

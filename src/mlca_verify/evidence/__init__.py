@@ -7,11 +7,11 @@ import json
 import os
 from pathlib import Path
 
-from mlca_verify.evidence.collect import ClosedLoopRuns, Evidence, collect, loop_controllers
+from mlca_verify.evidence.collect import NO_DATA_LOOP, ClosedLoopRuns, Evidence, collect, loop_controllers
 from mlca_verify.evidence.page import render_page
 from mlca_verify.files import write_atomic
 
-__all__ = ["ClosedLoopRuns", "Evidence", "collect", "loop_controllers", "now", "write_bundle"]
+__all__ = ["NO_DATA_LOOP", "ClosedLoopRuns", "Evidence", "collect", "loop_controllers", "now", "write_bundle"]
 
 
 def now() -> str:

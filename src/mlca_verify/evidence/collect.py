@@ -1,10 +1,10 @@
 """Collect the safety-case evidence for one machine: proofs, conformance of the generated code, tool versions,
 hashes, traceability, readings of the source side by side, and a GSN-style argument over all of it.
 
-For a machine with data (params, signals, variables) the bundle is the spec's own evidence (the proofs with their
-engines and certificates, the params, signals, variables, definitions and outputs, and the environment
-assumptions the proofs rely on), and the argument claims nothing about code: its generated code's conformance is
-checked by `mlca-verify conform`, not yet packaged here.
+For a machine with data (params, signals, variables) the bundle adds the proofs' engines and certificates, the
+params, signals, variables, definitions and outputs, and the environment assumptions the proofs rely on; its
+generated code is checked by `conform`'s checks for machines with data. The closed loop does not drive such a
+machine's code yet, so that goal stays undeveloped.
 
 Everything collected is deterministic for the same inputs (no durations, sorted goal lists, fixed seeds); the
 one timestamp is `generated_at`, which SOURCE_DATE_EPOCH fixes too.
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -23,10 +23,11 @@ from typing import Any
 import z3
 
 from mlca_verify import __version__
-from mlca_verify.codegen import machine_ir
-from mlca_verify.codegen.render import TEMPLATE_DIR, TEMPLATES
+from mlca_verify.codegen import data_ir, machine_ir
+from mlca_verify.codegen.render import DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import CheckOutcome
+from mlca_verify.conform.data import DATA_CHECKS
 from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
 from mlca_verify.evidence.page import anchor
@@ -39,10 +40,7 @@ from mlca_verify.spec.types import show_unit
 from mlca_verify.targets import FILES, Layout
 from mlca_verify.tools import run
 
-NO_DATA_CODE = (
-    "the bundle of a machine with data covers its spec: the conformance of its generated code is checked by "
-    "`mlca-verify conform` and not yet packaged here, and the closed loop does not run it yet"
-)
+NO_DATA_LOOP = "the closed loop does not drive the generated code of a machine with data yet"
 TOOL_VERSIONS = {
     "gcc": ["gcc", "--version"],
     "frama-c": ["frama-c", "-version"],
@@ -113,19 +111,16 @@ def collect(
     """Prove, check conformance and assemble the evidence for `spec`, with its closed-loop `runs` (None: no
     results database given) read beforehand."""
     loaded_readings = [load_spec(p, compare=False) for p in readings]
-    if spec.machine.has_data:  # no generated code: nothing to check for conformance, no controller to run
+    if spec.machine.has_data:
         if runs is not None:
-            raise ValueError(f"closed-loop runs drive generated code; {NO_DATA_CODE}")
-        loop = {
-            "status": "undeveloped",
-            "detail": f"no closed-loop runs: they drive generated code, and {NO_DATA_CODE}",
-        }
-        results = check_all(spec.machine)
-        outcomes: list[CheckOutcome] = []
+            raise ValueError(f"closed-loop runs drive generated code; {NO_DATA_LOOP}")
+        loop = {"status": "undeveloped", "detail": f"no closed-loop runs: {NO_DATA_LOOP}"}
+        checks = list(DATA_CHECKS)
     else:
         loop = closed_loop(runs, spec.machine.name.lower())  # every input read before the long work starts
-        results = check_all(spec.machine)
-        outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
+        checks = list(CHECKS)
+    results = check_all(spec.machine)
+    outcomes = conform(spec, generated, checks, lambda _: None).outcomes
     ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at)
     ev.loop = loop
     ev.data = document(ev)
@@ -158,7 +153,6 @@ def document(ev: Evidence) -> dict[str, Any]:
     }
     if ev.spec.machine.has_data:  # only then: the bundle of a machine without data stays as it was
         doc["data_machine"] = data_machine(ev)
-        doc["generated_code"] = {"available": False, "detail": NO_DATA_CODE}
     return doc
 
 
@@ -186,22 +180,20 @@ def _files(paths: list[Path]) -> list[dict[str, str]]:
 def inputs(ev: Evidence) -> list[dict[str, str]]:
     specs = [Path(ev.spec.path), *(Path(r.path) for r in ev.readings)]
     specs += [Path(c.other.loc.file) for c in ev.spec.machine.comparisons]
-    if ev.spec.machine.has_data:  # no code is generated, so the code templates are no input
-        return _files([p for p in specs if p.is_file()])
-    templates = [TEMPLATE_DIR / name for name in TEMPLATES.values()]
+    names = [*DATA_TEMPLATES.values(), "data_certified.c.j2"] if ev.spec.machine.has_data else TEMPLATES.values()
+    templates = [TEMPLATE_DIR / name for name in names]
     return _files([p for p in specs if p.is_file()]) + [
         {"path": f"templates/{p.name}", "sha256": sha256(p)} for p in sorted(templates)
     ]
 
 
 def generated_files(ev: Evidence) -> dict[str, Path]:
-    layout = Layout(ev.generated, machine_ir(ev.spec, ev.generated).module)
+    ir = data_ir(ev.spec, ev.generated) if ev.spec.machine.has_data else machine_ir(ev.spec, ev.generated)
+    layout = Layout(ev.generated, ir.module)
     return {kind: ev.generated / layout.relative(kind) for kind in FILES}
 
 
 def artifacts(ev: Evidence) -> list[dict[str, str]]:
-    if ev.spec.machine.has_data:
-        return []
     return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generated_files(ev).items()]
 
 
@@ -347,7 +339,7 @@ def _lines(path: Path, needle: str) -> list[int]:
 def traceability(ev: Evidence) -> list[dict[str, Any]]:
     m = ev.spec.machine
     verdicts = {r.prop: r for r in ev.results}
-    files = {} if m.has_data else generated_files(ev)  # a machine with data has no generated code to point into
+    files = generated_files(ev)
     rows = []
     elements: list[tuple[str, str, str, str, str]] = []  # element, text, cite, property, code needle
     for t in m.transitions:
@@ -365,12 +357,13 @@ def traceability(ev: Evidence) -> list[dict[str, Any]]:
     for element, text, cite, prop, needle in elements:
         r = verdicts[prop]
         code = []
-        code_tested = bool(needle) and not m.has_data  # a machine with data has no generated code to test
+        code_tested = bool(needle)
         if code_tested:
             for kind in ("c-source", "python"):
                 code += [{"file": files[kind].as_posix(), "line": n} for n in _lines(files[kind], needle)]
         tests = ["conform: exhaustive", "conform: sequences", "conform: frama-c-wp"] if code_tested else []
-        if r.verdict == "violated" and prop == r.prop and r.kind in ("invariant", "liveness") and not m.has_data:
+        replayed = ("invariant",) if m.has_data else ("invariant", "liveness")  # what --emit-tests replays
+        if r.verdict == "violated" and prop == r.prop and r.kind in replayed:
             tests.append("check --emit-tests: replays the counterexample")
         rows.append(
             {
@@ -446,13 +439,52 @@ def proofs_goal(node: Callable[..., None], results: list[Result], with_how: bool
         node(f"Sn2.{k}", "solution", text, "G2", r.ok, link=f"#proof-{anchor(r.prop)}")
 
 
+def code_goals(node: Callable[..., None], outcomes: list[CheckOutcome], checks: Iterable[str], first: int) -> None:
+    """Three goals from G<first>: the generated code is the spec's, its C implements the spec (backed by every
+    conformance check), its Python implements the spec (the exhaustive and sequence comparisons)."""
+    by_name = {o.name: o for o in outcomes}
+    g, c, py = (f"G{first + k}" for k in range(3))
+    up = by_name["up-to-date"]
+    node(g, "goal", "The generated code is the code of this spec and these templates", "S1", up.ok)
+    node(f"Sn{first}.1", "solution", up.detail, g, up.ok, link="#artifacts")
+    node(c, "goal", "The generated C implements the spec", "S1", all(by_name[n].ok for n in checks))
+    node(
+        f"S{first + 1}",
+        "strategy",
+        "Formal proof of the C against contracts stating the spec, backed by exhaustive and sanitized testing",
+        c,
+    )
+    for k, name in enumerate(checks, 1):
+        outcome = by_name[name]
+        text = f"{name}: {outcome.detail.splitlines()[0]}"
+        node(f"Sn{first + 1}.{k}", "solution", text, f"S{first + 1}", outcome.ok, link=f"#check-{name}")
+    exhaustive, sequences = by_name["exhaustive"], by_name["sequences"]
+    node(py, "goal", "The generated Python implements the spec", "S1", exhaustive.ok and sequences.ok)
+    node(f"Sn{first + 2}.1", "solution", exhaustive.detail, py, exhaustive.ok, link="#check-exhaustive")
+    node(f"Sn{first + 2}.2", "solution", sequences.detail, py, sequences.ok, link="#check-sequences")
+
+
+def loop_goal(node: Callable[..., None], loop: dict[str, Any], number: int, reason: str) -> None:
+    """G<number>: closed-loop runs show no runtime-monitor violation (undeveloped without runs, for `reason`)."""
+    if loop["status"] == "undeveloped":
+        node(
+            f"G{number}",
+            "undeveloped",
+            f"Closed-loop runs in traffic show no runtime-monitor violation ({reason})",
+            "S1",
+        )
+        return
+    ok = loop["status"] == "ok"
+    node(f"G{number}", "goal", "Closed-loop runs in traffic show no runtime-monitor violation", "S1", ok)
+    node(f"Sn{number}.1", "solution", loop["detail"], f"G{number}", ok, link="#closed-loop")
+
+
 def argument(ev: Evidence) -> list[dict[str, Any]]:
     """GSN nodes: goals, strategies, solutions (each linking to its artifact), contexts, undeveloped goals (and
     for a machine with data, assumptions: see `data_argument`)."""
     m: Machine = ev.spec.machine
     if m.has_data:
         return data_argument(ev)
-    by_name = {o.name: o for o in ev.outcomes}
     nodes: list[dict[str, Any]] = []
 
     def node(nid: str, kind: str, text: str, parent: str | None, ok: bool | None = None, *, link: str = "") -> None:
@@ -468,48 +500,8 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
     node("S1", "strategy", "Argue over the specification, the generated code, and closed-loop behaviour", "G1")
     proofs_goal(node, ev.results, with_how=False)
-    node(
-        "G3", "goal", "The generated code is the code of this spec and these templates", "S1", by_name["up-to-date"].ok
-    )
-    node("Sn3.1", "solution", by_name["up-to-date"].detail, "G3", by_name["up-to-date"].ok, link="#artifacts")
-    node("G4", "goal", "The generated C implements the spec", "S1", all(by_name[n].ok for n in CHECKS))
-    node(
-        "S4",
-        "strategy",
-        "Formal proof of the C against contracts stating the spec, backed by exhaustive and sanitized testing",
-        "G4",
-    )
-    for k, name in enumerate(CHECKS, 1):
-        node(
-            f"Sn4.{k}",
-            "solution",
-            f"{name}: {by_name[name].detail.splitlines()[0]}",
-            "S4",
-            by_name[name].ok,
-            link=f"#check-{name}",
-        )
-    node(
-        "G5",
-        "goal",
-        "The generated Python implements the spec",
-        "S1",
-        by_name["exhaustive"].ok and by_name["sequences"].ok,
-    )
-    node("Sn5.1", "solution", by_name["exhaustive"].detail, "G5", by_name["exhaustive"].ok, link="#check-exhaustive")
-    node("Sn5.2", "solution", by_name["sequences"].detail, "G5", by_name["sequences"].ok, link="#check-sequences")
-    loop = ev.loop
-    if loop["status"] == "undeveloped":
-        node(
-            "G6",
-            "undeveloped",
-            "Closed-loop runs in traffic show no runtime-monitor violation (no results database given)",
-            "S1",
-        )
-    else:
-        node(
-            "G6", "goal", "Closed-loop runs in traffic show no runtime-monitor violation", "S1", loop["status"] == "ok"
-        )
-        node("Sn6.1", "solution", loop["detail"], "G6", loop["status"] == "ok", link="#closed-loop")
+    code_goals(node, ev.outcomes, CHECKS, 3)
+    loop_goal(node, ev.loop, 6, "no results database given")
     return nodes
 
 
@@ -525,8 +517,9 @@ def _how(r: Result) -> str:
 
 
 def data_argument(ev: Evidence) -> list[dict[str, Any]]:
-    """The argument for a machine with data: over the spec alone (no code is generated for it yet), with a goal
-    for the params' whole ranges backed by the parametric proofs, and an assumption node per [[assume]]."""
+    """The argument for a machine with data: the proofs, a goal for the params' whole ranges backed by the
+    parametric proofs, an assumption node per [[assume]], the generated code's conformance, and the closed loop
+    (undeveloped: it does not drive such a machine's code yet)."""
     m: Machine = ev.spec.machine
     nodes: list[dict[str, Any]] = []
 
@@ -536,20 +529,19 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
     node(
         "G1",
         "goal",
-        f"The specification of {m.name} ({ev.spec.path}) meets its specified properties, for every param value in "
-        "range, under its environment assumptions",
+        f"The generated controller for {m.name} ({ev.spec.path}) meets its specified properties, for every param "
+        "value in range, under its environment assumptions",
         None,
         ev.ok,
     )
     node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
     node(
-        "C2",
-        "context",
-        f"No claim about code: {NO_DATA_CODE}",
+        "S1",
+        "strategy",
+        "Argue over the proofs of the spec (z3), under the environment assumptions, the generated code, and "
+        "closed-loop behaviour",
         "G1",
-        link="#conformance",
     )
-    node("S1", "strategy", "Argue over the proofs of the spec (z3), under the environment assumptions", "G1")
     for k, a in enumerate(m.assumptions, 1):
         text = f"{a.id}: {show(a.expr)} at every step ({a.doc})" + (f", source: {a.cite}" if a.cite else "")
         node(f"A{k}", "assumption", text, "S1", link=f"#assume-{anchor(a.id)}")
@@ -580,4 +572,6 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
                 f"{r.prop} holds for {what} (its proof is not parametric: declare it with parametric = true)",
                 "G3",
             )
+    code_goals(node, ev.outcomes, DATA_CHECKS, 4)
+    loop_goal(node, ev.loop, 7, NO_DATA_LOOP)
     return nodes
