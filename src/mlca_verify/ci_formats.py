@@ -24,6 +24,7 @@ RULES = {
     "liveness": "A declared response property fails on some run.",
     "equivalence": "Two machines behave differently on some input sequence.",
     "range": "A variable leaves its declared range.",
+    "lemma": "A declared lemma over the definitions fails for some values in range.",
     "citation": "A spec element cites no source (check --require-cites).",
 }
 
@@ -40,6 +41,7 @@ def element_loc(machine: Machine, prop: str) -> Loc:
     if kind == "range":
         return next(v.loc for v in machine.variables if v.name == name)
     declared = {i.id: i.loc for i in machine.invariants} | {p.id: p.loc for p in machine.liveness}
+    declared |= {x.id: x.loc for x in machine.lemmas}
     return declared.get(prop, machine.loc)
 
 

@@ -25,8 +25,10 @@ from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
 from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
+from mlca_verify.files import write_atomic
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.induction import Limits
+from mlca_verify.logic.lemmas import lemma_scripts
 from mlca_verify.logic.meaning import property_changes
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
@@ -62,6 +64,7 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--junit", metavar="FILE", help="also write JUnit XML: one test case per property")
     check.add_argument("--sarif", metavar="FILE", help="also write SARIF 2.1.0: findings at their spec lines")
     check.add_argument("--emit-tests", metavar="DIR", help="write a pytest and a C test replaying each violation")
+    check.add_argument("--smt2", metavar="DIR", help="write each lemma's query as SMT-LIB 2 (unsat: it holds)")
     check.add_argument("--generated", default="generated", metavar="DIR", help="generated code the tests use")
     _allow_outside(check)
 
@@ -163,10 +166,23 @@ def cmd_check(args: argparse.Namespace) -> int:
         write_json(args.sarif, ci_formats.sarif(for_ci, missing))
     if args.emit_tests:
         _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
+    if args.smt2:
+        _write_smt2(loaded, Path(args.smt2), args.parametric, args.timeout_ms)
     if missing:
         say(f"{len(missing)} spec elements cite no source (--require-cites)")
     every_ok = all(r.ok for _, results in checked for r in results)
     return EXIT_OK if every_ok and not missing else EXIT_FINDING
+
+
+def _write_smt2(loaded: list[LoadedSpec], out: Path, parametric: bool, timeout_ms: int) -> None:
+    for spec in loaded:
+        for name, text in lemma_scripts(spec.machine, parametric, timeout_ms).items():
+            try:
+                out.mkdir(parents=True, exist_ok=True)
+                write_atomic(out / name, text)
+            except OSError as err:
+                raise UsageError(f"{out}: error: cannot write SMT-LIB files: {err.strerror or err}") from None
+            say(f"wrote {terminal(str(out / name))}")
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:

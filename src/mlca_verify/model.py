@@ -409,6 +409,20 @@ class Liveness:
 
 
 @dataclass(frozen=True)
+class Lemma:
+    """A statement about the spec's definitions that must hold for every value of the signals in their declared
+    ranges (and of the params in theirs when `parametric`, else at their defaults), decided over the reals."""
+
+    id: str
+    expr: Expr
+    cite: str
+    expect: Verdict
+    loc: Loc
+    doc: str = ""
+    parametric: bool = False
+
+
+@dataclass(frozen=True)
 class Comparison:
     """A declared equivalence check against another machine."""
 
@@ -441,6 +455,7 @@ class Machine:
     outputs: tuple[Output, ...] = ()
     assumptions: tuple[Assumption, ...] = ()
     step_s: Fraction | None = None
+    lemmas: tuple[Lemma, ...] = ()
     data: bool = False  # declared data, or uses an expression a machine without data cannot (arithmetic, prev)
 
     @property

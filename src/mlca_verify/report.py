@@ -61,6 +61,8 @@ def _data_columns(cx: Counterexample) -> list[str]:
 def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") -> str:
     """A counterexample as a table of steps; inputs as 1/0; the loop of a lasso marked. A machine with data adds
     its params, a column per definition, variable (after the step) and output, and the signals below."""
+    if cx.point:
+        return point_text(cx, indent)
     rows = []
     extra = _data_columns(cx)
     for index, step in enumerate(cx.steps):
@@ -84,6 +86,21 @@ def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") 
     if cx.loop_start is not None:
         text += f"\n{indent}(steps {cx.loop_start + 1}..{len(cx.steps)} repeat forever)"
     return text
+
+
+def point_text(cx: Counterexample, indent: str = "    ") -> str:
+    """A lemma's counterexample: the values of the signals, params and definitions at which it fails."""
+    step = cx.steps[0]
+    lines = []
+    for label, values in (
+        ("signals", step.signals),
+        ("inputs", {k: int(v) for k, v in step.inputs.items()}),
+        ("params", cx.params),
+        ("definitions", step.definitions),
+    ):
+        if values:
+            lines.append(f"{indent}{label}: " + ", ".join(f"{k} = {number_text(v)}" for k, v in values.items()))
+    return "\n".join(lines)
 
 
 def results_text(

@@ -11,6 +11,7 @@ from functools import partial
 import z3
 
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
+from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
 from mlca_verify.logic.symbolic import (
     Frame,
@@ -23,7 +24,21 @@ from mlca_verify.logic.symbolic import (
     python_value,
     value_of,
 )
-from mlca_verify.model import Arith, Call, Expr, Invariant, Liveness, Machine, Num, Prev, Var, Verdict, nodes, prevs_of
+from mlca_verify.model import (
+    Arith,
+    Call,
+    Expr,
+    Invariant,
+    Lemma,
+    Liveness,
+    Machine,
+    Num,
+    Prev,
+    Var,
+    Verdict,
+    nodes,
+    prevs_of,
+)
 
 
 def _reads_validity(*exprs: Expr) -> bool:
@@ -192,7 +207,14 @@ class DataChecker:
         for live in m.liveness:
             q = p or live.parametric
             jobs.append(Job(live.id, "liveness", live.expect, live.cite, partial(self.liveness, live, q), q))
+        for lem in m.lemmas:
+            q = p or lem.parametric
+            jobs.append(Job(lem.id, "lemma", lem.expect, lem.cite, partial(self.lemma, lem, q), q))
         return jobs
+
+    def lemma(self, lem: Lemma, parametric: bool) -> Decision:
+        verdict, detail, trace = decide_lemma(self.m, lem, parametric, self.limits.timeout_ms)
+        return verdict, None, detail, trace
 
     def completeness(self) -> Decision:
         if self.m.otherwise == "stay":

@@ -17,6 +17,7 @@ Kind = Literal[
     "equivalence",
     "range",
     "division",
+    "lemma",
 ]
 Number = bool | int | float
 
@@ -70,11 +71,14 @@ class Counterexample:
     steps: tuple[Step, ...]
     loop_start: int | None = None
     params: dict[str, Number] = field(default_factory=dict)  # in a machine with data: the params of the run
+    point: bool = False  # one valuation, not a run: a lemma's counterexample (its one step holds the values)
 
     def to_json(self) -> dict[str, Any]:
         data: dict[str, Any] = {"steps": [s.to_json() for s in self.steps], "loop_start": self.loop_start}
         if self.params:
             data["params"] = dict(self.params)
+        if self.point:
+            data["point"] = True
         return data
 
 

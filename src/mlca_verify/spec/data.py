@@ -46,6 +46,7 @@ class Role:
     kinds: frozenset[str]
     state: bool
     prev: bool = False
+    over: str = "inputs only"  # what it is over, when it may not read the state (for the error message)
 
     def why_not(self, kind: str) -> str:
         if kind == "signal":
@@ -74,6 +75,13 @@ ROLES = {
     "assumption": Role("assumption", "bool", _STEP | {"output"}, state=False, prev=True),
     "goal": Role("goal", "bool", _STEP | {"output"}, state=True, prev=True),
     "bound": Role("bound", "int", frozenset({"param"}), state=False),
+    "lemma": Role(
+        "lemma",
+        "bool",
+        frozenset({"input", "param", "signal", "definition"}),
+        state=False,
+        over="signals, inputs, params and definitions",
+    ),
 }
 
 ExprOf = Callable[[KeyPath, str, str], tuple[Expr, Type, Unit | None]]

@@ -9,14 +9,17 @@ from mlca_verify.errors import Loc, SpecError
 from mlca_verify.model import (
     ANY_STATE,
     Comparison,
+    Definition,
     Expr,
     Input,
     Invariant,
+    Lemma,
     Liveness,
     Machine,
     Otherwise,
     Prev,
     Semantics,
+    StateIn,
     Transition,
     Type,
     Unit,
@@ -137,7 +140,8 @@ class MeaningChecker:
         assumptions = b.assumptions(self.property_id)
         invariants = self.invariants()
         liveness = self.liveness_list()
-        self.unique_properties(invariants, liveness)
+        lemmas = self.lemmas(definitions, variables)
+        self.unique_properties(invariants, liveness, lemmas)
         if self.data and m.get("semantics", "first-match") != "first-match":
             raise self.fail(("machine", "semantics"), 'a machine with data needs semantics = "first-match"')
         if self.data and self.doc.get("compare"):
@@ -171,6 +175,7 @@ class MeaningChecker:
             outputs=outputs,
             assumptions=assumptions,
             step_s=step_s,
+            lemmas=lemmas,
             data=self.data,
         )
 
@@ -238,7 +243,7 @@ class MeaningChecker:
                 where = self.where.string_loc(path, ref.state_offset)
                 raise SpecError(
                     where,
-                    f"{role.label} may not refer to the state ({role.label}s are over inputs only): {_quoted(text)}",
+                    f"{role.label} may not refer to the state ({role.label}s are over {role.over}): {_quoted(text)}",
                 )
             if ref.is_state and ref.name not in self.states:
                 raise SpecError(loc, f"unknown state '{ref.name}' in {role.label} (states: {', '.join(self.states)})")
@@ -397,8 +402,31 @@ class MeaningChecker:
             )
         return within, None
 
-    def unique_properties(self, invariants: tuple[Invariant, ...], liveness: tuple[Liveness, ...]) -> None:
-        named = [(p.id, p.loc) for p in invariants] + [(p.id, p.loc) for p in liveness]
+    def lemmas(self, definitions: tuple[Definition, ...], variables: tuple[Any, ...]) -> tuple[Lemma, ...]:
+        """Statements over signals, params and the definitions that read only those (no mode, no variable)."""
+        result = []
+        stateful = stateful_definitions(definitions, {v.name for v in variables})
+        for index, item in enumerate(self.doc.get("lemma", [])):
+            path: KeyPath = ("lemma", index)
+            self.property_id((*path, "id"), item["id"], "lemma id")
+            expr = self.expr((*path, "expr"), item["expr"], allow_state=False, role="lemma")
+            read = sorted({x.name for x in nodes(expr) if isinstance(x, Var) and x.name in stateful})
+            if read:
+                raise self.fail(
+                    (*path, "expr"), f"a lemma reads no mode and no variable, but definition {read[0]} does"
+                )
+            self.data = True
+            loc = self.where.loc(path)
+            doc, cite = item.get("doc", ""), item.get("cite", "")
+            parametric = item.get("parametric", False)
+            result.append(Lemma(item["id"], expr, cite, self.verdict(path, item), loc, doc, parametric))
+        return tuple(result)
+
+    def unique_properties(
+        self, invariants: tuple[Invariant, ...], liveness: tuple[Liveness, ...], lemmas: tuple[Lemma, ...] = ()
+    ) -> None:
+        named: list[tuple[str, Loc]] = [(p.id, p.loc) for p in invariants]
+        named += [(p.id, p.loc) for p in liveness] + [(p.id, p.loc) for p in lemmas]
         self.distinct((), named, "property id")
 
     def comparisons(self) -> tuple[Comparison, ...]:
@@ -426,3 +454,15 @@ class MeaningChecker:
                 raise self.fail(path, f"unknown built-in check {_quoted(key)} in [expect] (one of {hint})")
             table[key] = cast(Verdict, self.choice(path, value, VERDICTS))
         return table
+
+
+def stateful_definitions(definitions: tuple[Definition, ...], variables: set[str]) -> set[str]:
+    """The definitions that read the mode or a variable, directly or through other definitions."""
+    found: set[str] = set()
+    for d in definitions:  # in dependency order
+        if any(
+            isinstance(x, StateIn) or (isinstance(x, Var) and (x.name in variables or x.name in found))
+            for x in nodes(d.expr)
+        ):
+            found.add(d.name)
+    return found

@@ -57,6 +57,14 @@ LIVENESS = {
     "doc": Field("str"),
     "parametric": Field("bool"),
 }
+LEMMA = {
+    "id": Field("str", True),
+    "expr": Field("str", True),
+    "cite": Field("str"),
+    "expect": Field("str"),
+    "doc": Field("str"),
+    "parametric": Field("bool"),
+}
 COMPARE = {"with": Field("str", True), "cite": Field("str"), "expect": Field("str")}
 ASSUME = {"id": Field("str", True), "expr": Field("str", True), "cite": Field("str"), "doc": Field("str")}
 PARAM = {
@@ -98,13 +106,14 @@ OUTPUT = {
     "cite": Field("str"),
 }
 TABLES = {"params": PARAM, "signals": SIGNAL, "variables": VARIABLE, "definitions": DEFINITION, "outputs": OUTPUT}
-TOP = {"machine", "inputs", "transition", "invariant", "liveness", "compare", "expect", "assume", *TABLES}
+TOP = {"machine", "inputs", "transition", "invariant", "liveness", "lemma", "compare", "expect", "assume", *TABLES}
 ARRAYS = {
     "transition": TRANSITION,
     "invariant": INVARIANT,
     "liveness": LIVENESS,
     "compare": COMPARE,
     "assume": ASSUME,
+    "lemma": LEMMA,
 }
 
 _KIND_TEXT = {
