@@ -47,6 +47,7 @@ class Role:
     state: bool
     prev: bool = False
     over: str = "inputs only"  # what it is over, when it may not read the state (for the error message)
+    numeric_samples: bool = False  # may read a numeric definition of a signal: it has a value wherever it is read
 
     def why_not(self, kind: str) -> str:
         if kind == "signal":
@@ -68,7 +69,7 @@ _STEP = frozenset({"input", "param", "variable", "definition"})
 ROLES = {
     "guard": Role("guard", "bool", _STEP, state=False),
     "update": Role("update", None, _STEP, state=True),
-    "definition": Role("definition", None, _STEP | {"signal"}, state=True),
+    "definition": Role("definition", None, _STEP | {"signal"}, state=True, numeric_samples=True),
     "output": Role("output", None, _STEP, state=True),
     "environment assumption": Role("environment assumption", "bool", _STEP | {"signal"}, state=True),
     "invariant": Role("invariant", "bool", _STEP | {"output"}, state=True, prev=True),
@@ -81,6 +82,7 @@ ROLES = {
         frozenset({"input", "param", "signal", "definition"}),
         state=False,
         over="signals, inputs, params and definitions",
+        numeric_samples=True,  # a lemma is over the signals' ranges, where every sample is valid
     ),
 }
 

@@ -281,7 +281,7 @@ class MeaningChecker:
                 if role.label == "bound":
                     raise SpecError(at, "a bound reads only params")
                 continue
-            tainted = symbol.tainted and role.label != "definition"
+            tainted = symbol.tainted and not role.numeric_samples
             if symbol.kind not in role.kinds or tainted:
                 raise SpecError(at, f"{role.label} cannot read '{node.name}': {role.why_not(symbol.kind)}")
 
