@@ -57,14 +57,7 @@ LIVENESS = {
     "doc": Field("str"),
     "parametric": Field("bool"),
 }
-LEMMA = {
-    "id": Field("str", True),
-    "expr": Field("str", True),
-    "cite": Field("str"),
-    "expect": Field("str"),
-    "doc": Field("str"),
-    "parametric": Field("bool"),
-}
+LEMMA = INVARIANT  # the same keys: a statement, its source, its expected verdict, doc and parametric
 COMPARE = {"with": Field("str", True), "cite": Field("str"), "expect": Field("str")}
 ASSUME = {"id": Field("str", True), "expr": Field("str", True), "cite": Field("str"), "doc": Field("str")}
 PARAM = {
