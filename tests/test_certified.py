@@ -10,14 +10,13 @@ import pytest
 from mlca_verify.codegen import data_ir
 from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.certified import Proved, Untranslatable, certify, parse, ranges
-from mlca_verify.codegen.lower import Lowering, names_of
 from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.checks import wp_file
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 
 MACHINE = load_spec(ROOT / "spec" / "mlca_t.toml", compare=False).machine
-LOWERING = AcslLowering(Lowering(names_of(MACHINE, "mlca_t", "MLCA_T"), "c"), context_free(MACHINE))
+LOWERING = AcslLowering.of(MACHINE, "mlca_t", "MLCA_T")
 DEFERRAL = (
     "(let ((a!1 (not (<= (+ need_age@p0 (* (- 1) waited@p0)) (- 1)))))"
     " (and (or (not prev0@p0) (not (>= mode@p0 2))) (or (not first@p0) (not (>= mode@p0 1))) a!1"

@@ -175,14 +175,16 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def _write_smt2(loaded: list[LoadedSpec], out: Path, parametric: bool, timeout_ms: int) -> None:
-    for spec in loaded:
-        for name, text in lemma_scripts(spec.machine, parametric, timeout_ms).items():
-            try:
-                out.mkdir(parents=True, exist_ok=True)
-                write_atomic(out / name, text)
-            except OSError as err:
-                raise UsageError(f"{out}: error: cannot write SMT-LIB files: {err.strerror or err}") from None
+    scripts = {
+        name: text for spec in loaded for name, text in lemma_scripts(spec.machine, parametric, timeout_ms).items()
+    }
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for name, text in scripts.items():
+            write_atomic(out / name, text)
             say(f"wrote {terminal(str(out / name))}")
+    except OSError as err:
+        raise UsageError(f"{out}: error: cannot write SMT-LIB files: {err.strerror or err}") from None
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:

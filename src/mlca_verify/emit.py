@@ -19,7 +19,7 @@ from mlca_verify.codegen.lower import Lowering, names_of, real_literal
 from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
 from mlca_verify.logic.results import Counterexample, Result
-from mlca_verify.model import Expr, Liveness, Machine, Num, prevs_of, show
+from mlca_verify.model import Expr, Liveness, Machine, prevs_of, show
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.targets import Layout
 
@@ -105,7 +105,8 @@ def data_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[str,
     m = spec.machine
     if cx is None or result.verdict != "violated" or result.kind not in ("invariant", "range", "liveness"):
         return None
-    ctypes = {f.name: f.ctype for f in (*_ir(spec).signals, *_ir(spec).params)}
+    ir = _ir(spec)
+    ctypes = {f.name: f.ctype for f in (*ir.signals, *ir.params)}
     steps: list[dict[str, object]] = [{**s.inputs, **s.signals} for s in cx.steps]
     values: dict[str, object] = {
         "spec_path": spec.path,
@@ -153,9 +154,7 @@ def _liveness_values(
     and outputs), and the steps to replay: a lasso's loop is repeated."""
     names = names_of(m, m.name.lower(), m.name.upper())
     py, c = Lowering(names, "py"), Lowering(names, "c")
-    bound = live.bound if live.bound is not None else None
-    if bound is None and live.within is not None:
-        bound = Num(Fraction(live.within), False)
+    bound = live.steps_bound
     values.update(
         assume_py=py.go(live.assume),
         goal_py=py.go(live.goal),

@@ -7,7 +7,7 @@ variables, definitions and outputs) and the machine's state.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Literal, TypeAlias
@@ -407,6 +407,13 @@ class Liveness:
     parametric: bool = False
     bound: Expr | None = None  # in a machine with data: the bound in steps, over params (`within` when constant)
 
+    @property
+    def steps_bound(self) -> Expr | None:
+        """The bound in steps as an expression (`bound`, or the constant `within`); None when unbounded."""
+        if self.bound is None and self.within is not None:
+            return Num(Fraction(self.within), False)
+        return self.bound
+
 
 @dataclass(frozen=True)
 class Lemma:
@@ -473,3 +480,17 @@ class Machine:
     def expected(self, prop: str) -> Verdict:
         """The declared expectation for a built-in check (default: holds)."""
         return self.expect.get(prop, "holds")
+
+
+def stateful_definitions(definitions: Iterable[Definition], variables: Iterable[str]) -> frozenset[str]:
+    """The definitions (given in dependency order) that read the mode or a variable, directly or through other
+    definitions."""
+    found: set[str] = set()
+    named = set(variables)
+    for d in definitions:
+        if any(
+            isinstance(x, StateIn) or (isinstance(x, Var) and (x.name in named or x.name in found))
+            for x in nodes(d.expr)
+        ):
+            found.add(d.name)
+    return frozenset(found)

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from fractions import Fraction
 
-from mlca_verify.codegen.lower import Lowering, real_literal
+from mlca_verify.codegen.lower import Lowering, Names, names_of, real_literal
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -28,7 +28,7 @@ from mlca_verify.model import (
     StateIn,
     Type,
     Var,
-    nodes,
+    stateful_definitions,
 )
 
 CONNECTIVES = {"and": "&&", "or": "||", "->": "==>", "<->": "<==>"}
@@ -38,23 +38,21 @@ def context_free(m: Machine) -> frozenset[str]:
     """The definitions that read neither the mode nor a variable, directly or through other definitions: their
     logic functions take only the inputs and params, so that one value read before and after a step is
     visibly the same term (a prover cannot see it through a function without a body)."""
-    free: set[str] = set()
-    variables = {v.name for v in m.variables}
-    for d in m.definitions:  # in dependency order
-        names = [x.name for x in nodes(d.expr) if isinstance(x, Var)]
-        reads_mode = any(isinstance(x, StateIn) for x in nodes(d.expr))
-        defs = {x.name for x in m.definitions}
-        if not reads_mode and all(n not in variables and (n not in defs or n in free) for n in names):
-            free.add(d.name)
-    return frozenset(free)
+    stateful = stateful_definitions(m.definitions, (v.name for v in m.variables))
+    return frozenset(d.name for d in m.definitions if d.name not in stateful)
 
 
 class AcslLowering(Lowering):
     """ACSL text of expressions over the logic view `c`, `i`, `p` (and `o` for outputs)."""
 
-    def __init__(self, lowering: Lowering, free: frozenset[str] = frozenset()) -> None:
-        super().__init__(lowering.n, "acsl")
+    def __init__(self, names: Names, free: frozenset[str] = frozenset()) -> None:
+        super().__init__(names, "acsl")
         self.free = free  # the definitions that take no context (see `context_free`)
+
+    @classmethod
+    def of(cls, m: Machine, prefix: str, macro: str) -> AcslLowering:
+        """The lowering of a machine's expressions, with its C names."""
+        return cls(names_of(m, prefix, macro), context_free(m))
 
     def args(self, definition: str, c: str = "c", i: str = "i", p: str = "p") -> str:
         """The arguments of a definition's logic function."""

@@ -20,7 +20,7 @@ from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.data_ir import binary64
-from mlca_verify.model import Machine, Prev, Type, prevs_of
+from mlca_verify.model import Expr, Machine, Prev, Type, prevs_of
 
 Sexpr = str | list["Sexpr"]
 _TOKEN = re.compile(r"\(|\)|[^\s()]+")
@@ -49,9 +49,6 @@ def parse(text: str) -> Sexpr:
     if len(stack) != 1 or len(stack[0]) != 1:
         raise Untranslatable("malformed certificate")
     return stack[0][0]
-
-
-_BOOL_OPS = {"and", "or", "not", "=>", "<=", ">=", "<", ">", "=", "true", "false", "distinct"}
 
 
 @dataclass(frozen=True)
@@ -182,19 +179,18 @@ class Certified:
     cite: str
 
 
-def invariant_text(lowering: AcslLowering, expr: object, prev_index: Mapping[Prev, int], prefix: str) -> str:
+def invariant_text(lowering: AcslLowering, expr: Expr, prev_index: Mapping[Prev, int], prefix: str) -> str:
     """The invariant over the context after the step; prev(e) is e over the context before it, or at the first
     step e over that same context (as the engine and the monitor read it)."""
-    assert not isinstance(expr, str)
     prevs: dict[Prev, str] = {}
-    for prev in prevs_of(expr):  # type: ignore[arg-type]
+    for prev in prevs_of(expr):
         k = prev_index[prev]
         fresh = f"{prefix}_l_prev{k}(\\at(*cp, Pre), i, p)"
         if lowering.type_of(prev.arg) == "bool":
             prevs[prev] = f"((\\at(cp->first, Pre) != 0) ? {fresh} : (\\at(cp->prev{k}, Pre) != 0))"
         else:
             prevs[prev] = f"(\\at(cp->first, Pre) ? {fresh} : \\at(cp->prev{k}, Pre))"
-    return lowering.go(expr, prevs)  # type: ignore[arg-type]
+    return lowering.go(expr, prevs)
 
 
 @dataclass(frozen=True)

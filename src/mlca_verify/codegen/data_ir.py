@@ -148,7 +148,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     macro = module.upper()
     names = names_of(m, module, macro)
     c, py = Lowering(names, "c"), Lowering(names, "py")
-    logic = AcslLowering(c, context_free(m))
+    logic = AcslLowering(names, context_free(m))
     for inv in m.invariants:
         if any(
             isinstance(x, Var) and names.kinds[x.name] == "output" for p in prevs_of(inv.expr) for x in nodes(p.arg)
@@ -307,7 +307,7 @@ def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
     ranges = {**names.ranges, **{a: bounds for a, _, bounds in sh.args}}
     view = replace(names, kinds=kinds, types=types, ranges=ranges)
     c, py = Lowering(view, "c"), Lowering(view, "py")
-    logic = AcslLowering(c)
+    logic = AcslLowering(view)
     code = Code(
         c.as_type(sh.expr, sh.kind, None),
         py.as_type(sh.expr, sh.kind, None),

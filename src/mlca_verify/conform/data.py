@@ -24,11 +24,10 @@ from typing import Any
 
 import z3
 
-from mlca_verify.codegen.acsl import AcslLowering, context_free
+from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, certify, ranges
 from mlca_verify.codegen.data_ir import DataIR
-from mlca_verify.codegen.lower import Lowering, names_of
-from mlca_verify.codegen.render import render_template
+from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
 from mlca_verify.logic.datachecks import check_data_machine
 from mlca_verify.logic.induction import Limits
@@ -454,11 +453,10 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
         and r.proof.certificate is not None
         and r.proof.certificate_checked
     ]
-    lowering = AcslLowering(Lowering(names_of(t.machine, t.ir.module, t.ir.macro), "c"), context_free(t.machine))
-    stated, left = certify(t.machine, lowering, proved)
+    stated, left = certify(t.machine, AcslLowering.of(t.machine, t.ir.module, t.ir.macro), proved)
     source = t.build / f"{t.ir.module}_certified.c"
     text = render_template(
-        "data_certified.c.j2",
+        CERTIFIED_TEMPLATE,
         m=t.ir,
         source=str(t.layout.c_source.resolve()),
         certified=stated,

@@ -5,7 +5,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from fractions import Fraction
 from functools import partial
 
 import z3
@@ -32,7 +31,6 @@ from mlca_verify.model import (
     Lemma,
     Liveness,
     Machine,
-    Num,
     Prev,
     Var,
     Verdict,
@@ -320,9 +318,7 @@ class DataChecker:
         return self.violation(found, f"after the last step {inv.id} fails")
 
     def liveness(self, live: Liveness, parametric: bool) -> Decision:
-        bound = live.bound
-        if bound is None and live.within is not None:
-            bound = Num(Fraction(live.within), False)
+        bound = live.steps_bound
         if bound is None:
             return self.lasso(live, parametric)
         monitor = Monitor("respond", live.assume, live.goal, bound)

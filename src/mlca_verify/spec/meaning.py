@@ -19,7 +19,6 @@ from mlca_verify.model import (
     Otherwise,
     Prev,
     Semantics,
-    StateIn,
     Transition,
     Type,
     Unit,
@@ -27,6 +26,7 @@ from mlca_verify.model import (
     Verdict,
     is_boolean_only,
     nodes,
+    stateful_definitions,
 )
 from mlca_verify.model import Call as CallNode
 from mlca_verify.spec.data import ROLES, DataBuilder, Role, declared_data
@@ -405,7 +405,7 @@ class MeaningChecker:
     def lemmas(self, definitions: tuple[Definition, ...], variables: tuple[Any, ...]) -> tuple[Lemma, ...]:
         """Statements over signals, params and the definitions that read only those (no mode, no variable)."""
         result = []
-        stateful = stateful_definitions(definitions, {v.name for v in variables})
+        stateful = stateful_definitions(definitions, (v.name for v in variables))
         for index, item in enumerate(self.doc.get("lemma", [])):
             path: KeyPath = ("lemma", index)
             self.property_id((*path, "id"), item["id"], "lemma id")
@@ -454,15 +454,3 @@ class MeaningChecker:
                 raise self.fail(path, f"unknown built-in check {_quoted(key)} in [expect] (one of {hint})")
             table[key] = cast(Verdict, self.choice(path, value, VERDICTS))
         return table
-
-
-def stateful_definitions(definitions: tuple[Definition, ...], variables: set[str]) -> set[str]:
-    """The definitions that read the mode or a variable, directly or through other definitions."""
-    found: set[str] = set()
-    for d in definitions:  # in dependency order
-        if any(
-            isinstance(x, StateIn) or (isinstance(x, Var) and (x.name in variables or x.name in found))
-            for x in nodes(d.expr)
-        ):
-            found.add(d.name)
-    return found
