@@ -36,11 +36,13 @@ def _inputs(py: object, **changes: object) -> object:
         "U": False,
         "v": 25.0,
         "gap_lead_left": 1000.0,
-        "gap_follow_left": 80.0,
+        "gap_follow_left": 110.0,  # RSS asks for 106.1 m from a follower at 27 m/s behind the AV at 25 m/s
         "v_follow_left": 27.0,
+        "v_lead_left": 25.0,
         "gap_lead_right": 1000.0,
         "gap_follow_right": 1000.0,
         "v_follow_right": 0.0,
+        "v_lead_right": 0.0,
     }
     values.update(changes)
     return py.Inputs(**values)  # type: ignore[attr-defined]
@@ -86,7 +88,7 @@ def test_conformance_of_mlca_t_passes() -> None:
     assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in names
     assert "typed_mlca_t_fired_WAITING_complete" in " ".join(names)
     assert {"typed_mlca_t_step_ensures_3", "typed_mlca_t_step_ensures_4"} <= names
-    assert wp["binary64"] == ["mlca_t_shape1: ensures"]  # the gap rule's one C function over reals
+    assert wp["binary64"] == ["mlca_t_shape2: ensures"]  # the gap rule's one C function over reals
     # the spec's invariants on the step, each with its certificate; the two that compare samples are left out
     certified = wp["certified"]
     assert certified["proved"] == certified["goals"] > 0
@@ -230,18 +232,27 @@ def test_one_rule_over_different_signals_is_generated_once() -> None:
 
     machine = load_spec(SPEC, compare=False).machine
     shapes, uses = shared_shapes(machine)
-    assert len(shapes) == 2
+    assert len(shapes) == 4
     assert {name: use.shape for name, use in uses.items()} == {
-        "closing_left": 0,
-        "closing_right": 0,
-        "L": 1,
-        "R": 1,
+        "reach_av": 0,
+        "reach_follow_left": 0,
+        "reach_follow_right": 0,
+        "stop_av": 1,
+        "stop_lead_left": 1,
+        "stop_lead_right": 1,
+        "L": 2,
+        "R": 2,
+        "rss_lead_left": 3,
+        "rss_follow_left": 3,
+        "rss_lead_right": 3,
+        "rss_follow_right": 3,
     }
-    assert uses["L"].signals == ("gap_lead_left", "v", "gap_follow_left", "v_follow_left")
+    assert uses["L"].signals == ("gap_lead_left", "v", "v_lead_left", "gap_follow_left", "v_follow_left")
     assert "W" not in uses  # it reads a variable and an input: not a rule over samples
     c = (GENERATED / "c" / "mlca_t_fsm.c").read_text()
-    assert c.count("static bool mlca_t_shape1(") == 1
-    assert "mlca_t_shape1(i->gap_lead_right, i->v, i->gap_follow_right, i->v_follow_right, p)" in c
+    assert c.count("static bool mlca_t_shape2(") == 1
+    assert "mlca_t_shape2(i->gap_lead_right, i->v, i->v_lead_right, i->gap_follow_right, i->v_follow_right, p)" in c
+    assert "mlca_t_shape3" not in c  # the lemmas' rule is not code: no transition reads it
 
 
 SMALL = """

@@ -14,36 +14,46 @@ static bool in_range(double x, double hi)
     return (0.0 <= x) && (x <= hi);
 }
 
-/* max(MIN_GAP, TIME_GAP * speed), keeping MIN_GAP unless the product is larger (as the spec's max). */
-static double needed_gap(double speed, const mlca_t_params_t *p)
+/* The larger of MIN_GAP and a distance (as the spec's max: MIN_GAP unless the distance is larger). */
+static double at_least_min_gap(double d, const mlca_t_params_t *p)
 {
-    const double by_time = p->TIME_GAP * speed;
-    return (by_time > p->MIN_GAP) ? by_time : p->MIN_GAP;
+    return (d > p->MIN_GAP) ? d : p->MIN_GAP;
+}
+
+/* RSS (Definition 1): how far a vehicle at `speed` travels until it stops when it accelerates at ACCEL_MAX for
+ * the response time RHO and then brakes at BRAKE_MIN. */
+static double reach(double speed, const mlca_t_params_t *p)
+{
+    const double v_end = speed + (p->RHO * p->ACCEL_MAX);
+    return ((speed * p->RHO) + (((p->ACCEL_MAX * p->RHO) * p->RHO) / 2.0)) + ((v_end * v_end) / (2.0 * p->BRAKE_MIN));
+}
+
+/* RSS: the shortest distance a vehicle at `speed` needs to stop, braking at BRAKE_MAX. */
+static double stop(double speed, const mlca_t_params_t *p)
+{
+    return (speed * speed) / (2.0 * p->BRAKE_MAX);
 }
 
 /* L (left lane) or R (right lane): false when a sample it reads is invalid. */
-static bool lane_safe(double v, double gap_lead, double gap_follow, double v_follow, const mlca_t_params_t *p)
+static bool lane_safe(double v, double gap_lead, double v_lead, double gap_follow, double v_follow,
+    const mlca_t_params_t *p)
 {
-    double closing;
-    if (!(in_range(v, V_MAX) && in_range(gap_lead, GAP_MAX) && in_range(gap_follow, GAP_MAX)
-            && in_range(v_follow, V_MAX))) {
+    if (!(in_range(gap_lead, GAP_MAX) && in_range(v, V_MAX) && in_range(v_lead, V_MAX)
+            && in_range(gap_follow, GAP_MAX) && in_range(v_follow, V_MAX))) {
         return false;
     }
-    if (!(gap_lead >= needed_gap(v, p)) || !(gap_follow >= needed_gap(v_follow, p))) {
-        return false;
-    }
-    closing = v_follow - v;
-    return (closing <= 0.0) || ((closing * closing) <= ((2.0 * p->FOLLOWER_DECEL) * gap_follow));
+    return (gap_lead >= at_least_min_gap(reach(v, p) - stop(v_lead, p), p))
+        && (gap_follow >= at_least_min_gap(reach(v_follow, p) - stop(v, p), p));
 }
 
 static bool left_safe(const mlca_t_inputs_t *in, const mlca_t_params_t *p)
 {
-    return lane_safe(in->v, in->gap_lead_left, in->gap_follow_left, in->v_follow_left, p);
+    return lane_safe(in->v, in->gap_lead_left, in->v_lead_left, in->gap_follow_left, in->v_follow_left, p);
 }
 
 static bool right_safe(const mlca_t_inputs_t *in, const mlca_t_params_t *p)
 {
-    return lane_safe(in->v, in->gap_lead_right, in->gap_follow_right, in->v_follow_right, p);
+    return lane_safe(in->v, in->gap_lead_right, in->v_lead_right, in->gap_follow_right, in->v_follow_right, p);
 }
 
 void mlca_t_hand_init(mlca_t_ctx_t *c)

@@ -19,11 +19,13 @@ def sense(tick: int) -> mlca_t.Inputs:
         U=False,
         v=25.0,
         gap_lead_left=1000.0,
-        gap_follow_left=80.0,
+        gap_follow_left=110.0,  # RSS asks for 106.1 m from a follower at 27 m/s behind the AV at 25 m/s
         v_follow_left=math.nan if tick == 30 else 27.0,
+        v_lead_left=0.0,
         gap_lead_right=1000.0,
         gap_follow_right=1000.0,
         v_follow_right=0.0,
+        v_lead_right=0.0,
     )
 
 

@@ -14,11 +14,13 @@ static void read_sensors(mlca_t_inputs_t *in, uint32_t tick)
     in->U = false;                     /* the lane does not end */
     in->v = 25.0;                      /* m/s */
     in->gap_lead_left = 1000.0;        /* nobody sensed ahead on the left */
-    in->gap_follow_left = 80.0;
+    in->gap_follow_left = 110.0;       /* RSS asks for 106.1 m from a follower at 27 m/s */
     in->v_follow_left = 27.0;
+    in->v_lead_left = 0.0;             /* no leader: a standing vehicle 1000 m ahead */
     in->gap_lead_right = 1000.0;
     in->gap_follow_right = 1000.0;
     in->v_follow_right = 0.0;
+    in->v_lead_right = 0.0;
 }
 
 /* The integrator's: hand the command to the lateral controller (+1 left, -1 right, 0 keep the lane). */
