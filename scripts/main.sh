@@ -8,8 +8,11 @@
 #   4. run the paper's comparison closed loop in SUMO on a short version of its scenario: both generated C
 #      controllers and every comparison model, one and three AVs, two seeds each (out/sim.sqlite; runs already
 #      there are kept), and draw it beside the paper's figures (out/comparison/report.md);
-#   5. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
-#      evidence of MLCA-T, the machine with data, its proofs and its generated code (out/evidence_t/index.html).
+#   5. replay in SUMO the counterexamples of MLCA-T's gap-rule lemmas (the old time-gap rule against RSS;
+#      out/replay.json);
+#   6. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
+#      evidence of MLCA-T, the machine with data: its proofs, its generated code and its physical-safety section
+#      (out/evidence_t/index.html).
 # Reports go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,6 +25,7 @@ mkdir -p out
     --scenario sim_check/scenarios/short.toml --db out/sim.sqlite --resume
 .venv/bin/mlca-sim report --db out/sim.sqlite --out out/comparison
 .venv/bin/mlca-verify evidence spec/mlca_r.toml --db out/sim.sqlite --out out/evidence
-.venv/bin/mlca-verify evidence spec/mlca_t.toml --out out/evidence_t
-echo "main: reports in out/check.json, out/conform.json, out/sim.sqlite, out/comparison/report.md and out/evidence/" \
-    "and out/evidence_t/ (open out/evidence/index.html)"
+.venv/bin/mlca-sim replay out/check.json --json out/replay.json
+.venv/bin/mlca-verify evidence spec/mlca_t.toml --replay out/replay.json --out out/evidence_t
+echo "main: reports in out/check.json, out/conform.json, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
+    "out/evidence/ and out/evidence_t/ (open out/evidence/index.html)"

@@ -1,6 +1,7 @@
-"""`mlca-sim`: closed-loop runs and sweeps. Exit 0 when every run finished with no monitor violation, 1 when a
-run failed or the monitor fired, 2 on bad input (one line on stderr), 3 on an internal error (one line; the
-traceback with --debug), 130 when interrupted (mlca_verify.cli_base)."""
+"""`mlca-sim`: closed-loop runs and sweeps, and replays of lemma counterexamples. Exit 0 when every run finished
+with no monitor violation (every replay as expected), 1 when a run failed or the monitor fired (a replay was not), 2
+on bad input (one line on stderr), 3 on an internal error (one line; the traceback with --debug), 130 when
+interrupted (mlca_verify.cli_base)."""
 
 from __future__ import annotations
 
@@ -88,6 +89,13 @@ def _parser() -> argparse.ArgumentParser:
     report = sub.add_parser("report", help="figures and report.md beside the paper's values, from a results database")
     report.add_argument("--db", type=Path, required=True, help="results database (SQLite) written by sweep")
     report.add_argument("--out", type=Path, required=True, help="folder for the figures (PNG, SVG) and report.md")
+    replay = sub.add_parser(
+        "replay", help="a lemma's counterexample (or a point) as traffic in SUMO: RSS's worst case after the change"
+    )
+    replay.add_argument("file", type=Path, help="`mlca-verify check --json` output, or a TOML file with [point]")
+    replay.add_argument("--lemma", help="the lemma whose counterexample to replay (default: every violated one)")
+    replay.add_argument("--side", choices=["left", "right"], default="left", help="the lane changed into")
+    replay.add_argument("--json", type=Path, help="also write the outcome as JSON")
     return parser
 
 
@@ -279,7 +287,31 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report}
+def cmd_replay(args: argparse.Namespace) -> int:
+    from sim_check.replay import as_json, describe, load_points, outcome
+
+    points = load_points(args.file, args.lemma, args.side)  # read (or refused) before SUMO starts
+    require_extra("replay")
+    from sim_check.replay import replay
+
+    outcomes = []
+    with tempfile.TemporaryDirectory(prefix="mlca-sim-") as work:
+        for k, point in enumerate(points):
+            phases = replay(point, Path(work) / str(k))
+            print(describe(point, phases))
+            outcomes.append((point, phases))
+    unsafe = sum(outcome(phases) == "unsafe" for _, phases in outcomes)
+    unexpected = [p.source for p, phases in outcomes if outcome(phases) != p.expect]
+    print(
+        f"{len(outcomes)} point(s) replayed: {unsafe} unsafe (a collision, or braking beyond a declared limit); "
+        + (f"{len(unexpected)} not as expected: {', '.join(unexpected)}" if unexpected else "all as expected")
+    )
+    if args.json:
+        write_json(str(args.json), {"schema": "mlca-sim.replay/1", "points": [as_json(*o) for o in outcomes]})
+    return 1 if unexpected else 0
+
+
+COMMANDS = {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report, "replay": cmd_replay}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

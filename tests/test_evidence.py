@@ -24,6 +24,7 @@ from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns
 from mlca_verify.evidence.collect import closed_loop
 from mlca_verify.model import show
 from mlca_verify.spec import load_spec
+from sim_check.cli import main as sim_main
 from tests.conftest import ROOT
 
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
@@ -195,8 +196,12 @@ def data_bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     """The evidence of a machine with data, built twice at two different times, each by its own process (as a
     reproducible build runs it)."""
     out = tmp_path_factory.mktemp("evidence-data")
+    checked, replayed = out / "check.json", out / "replay.json"
+    assert main(["check", MLCA_T, "--quiet", "--json", str(checked)]) == 0
+    assert sim_main(["replay", str(checked), "--json", str(replayed)]) == 0
     for name, epoch in (("a", "1764000000"), ("b", "1764003600")):
         command = [sys.executable, "-m", "mlca_verify", "evidence", MLCA_T, "--out", str(out / name)]
+        command += ["--replay", str(replayed)]
         env = {**os.environ, "SOURCE_DATE_EPOCH": epoch}
         done = subprocess.run(command, check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
         assert done.returncode == 0, done.stdout + done.stderr
@@ -214,7 +219,7 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
     params = {p["name"]: p for p in data["params"]}
     assert list(params) == [p.name for p in m.params] and len(params) >= 4
     assert params["T_MIN"] == {**params["T_MIN"], "type": "int", "default": "20", "range": ["1", "100"], "unit": "step"}
-    assert params["TIME_GAP"]["default"] == "1.0" and params["FOLLOWER_DECEL"]["unit"] == "m/s^2"
+    assert params["RHO"]["default"] == "1.0" and params["BRAKE_MIN"]["unit"] == "m/s^2"
     assert [(p["doc"], p["cite"]) for p in params.values()] == [(p.doc, p.cite) for p in m.params]
     signals = {s["name"]: s for s in data["signals"]}
     assert signals["v"]["unit"] == "m/s" and signals["v"]["range"] == ["0.0", "70.0"]
@@ -271,6 +276,74 @@ def test_data_machine_bundle_packages_its_generated_code(data_bundles: tuple[Pat
     assert nodes["G4"]["ok"] is True and nodes["G5"]["ok"] is True and nodes["G6"]["ok"] is True
     assert [n["text"].split(":")[0] for n in doc["argument"] if n["parent"] == "S5"] == list(DATA_CHECKS)
     assert nodes["G7"]["type"] == "undeveloped" and "does not drive" in nodes["G7"]["text"]
+
+
+def test_data_machine_bundle_has_the_physical_safety_section(data_bundles: tuple[Path, Path]) -> None:
+    m = load_spec(ROOT / MLCA_T).machine
+    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+    section = doc["physical_safety"]
+    lemmas = {x["id"]: x for x in section["lemmas"]}
+    assert list(lemmas) == [x.id for x in m.lemmas]
+    assert {k: (x["verdict"], x["ok"]) for k, x in lemmas.items()} == {
+        "L-is-rss-safe": ("holds", True),
+        "R-is-rss-safe": ("holds", True),
+        "time-gap-rule-is-rss-safe": ("violated", True),
+        "time-gap-rule-is-rss-safe-on-the-highway": ("violated", True),
+    }
+    for x in lemmas.values():  # each query is in the bundle, as hashed
+        query = (data_bundles[0] / x["smt2"]).read_bytes()
+        assert hashlib.sha256(query).hexdigest() == x["smt2_sha256"] and b"(check-sat)" in query
+    assert lemmas["L-is-rss-safe"]["params"] == ["ACCEL_MAX", "BRAKE_MAX", "BRAKE_MIN", "MIN_GAP", "RHO"]
+    check = section["ad_rss_lib"]
+    assert check["status"] == "ok"
+    assert {(a["name"], a["rear"], a["front"]) for a in check["definitions"]} == {
+        ("rss_lead_left", "v", "v_lead_left"),
+        ("rss_follow_left", "v_follow_left", "v"),
+        ("rss_lead_right", "v", "v_lead_right"),
+        ("rss_follow_right", "v_follow_right", "v"),
+    }
+    assert all(a["max_difference_m"] <= 1e-3 and a["points"] > 100 for a in check["definitions"])
+    (replayed,) = lemmas["time-gap-rule-is-rss-safe-on-the-highway"]["replays"]
+    assert replayed["outcome"] == replayed["expect"] == "unsafe"
+    assert all(p["phases"][0]["unsafe"] for p in section["replay"]["points"])
+    nodes = {n["id"]: n for n in doc["argument"]}
+    assert nodes["G8"]["text"] == "A move starts only into a gap that is safe by RSS" and nodes["G8"]["ok"] is True
+    backing = [n["text"] for n in doc["argument"] if n["parent"] == "S8"]
+    assert backing[0].startswith("lemma L-is-rss-safe: holds") and backing[2].startswith("ad-rss-lib: 4 RSS")
+    assert any(text.startswith("invariant A3 ") and "ties the states to L" in text for text in backing)
+    contexts = [n["text"] for n in doc["argument"] if n["parent"] == "G8" and n["type"] == "context"]
+    assert contexts[1].endswith("replayed in SUMO: unsafe (expected unsafe)")
+    html = (data_bundles[0] / "index.html").read_text()
+    assert 'id="physical-safety"' in html and 'href="smt2/mlca_t_L_is_rss_safe.smt2"' in html
+
+
+def test_a_replay_of_another_spec_is_not_counted_for_this_one(tmp_path: Path) -> None:
+    from mlca_verify.evidence.physics import check_replay, replays_of
+
+    point = {"source": "x", "spec_sha256": "0" * 64, "lemma": "L", "expect": "safe", "outcome": "safe"}
+    doc = check_replay({"schema": "mlca-sim.replay/1", "points": [{**point, "point": {}, "phases": []}]}, "f")
+    assert replays_of(doc, "1" * 64) == {} and list(replays_of(doc, "0" * 64)) == ["L"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("{", "Expecting property name"),
+        ('{"schema": "mlca-sim.replay/1", "points": [{"source": 1}]}', "points[0].source is missing or not a str"),
+        ('{"schema": "other"}', "not a `mlca-sim replay --json` document"),
+        ("[" * 50_000, "maximum recursion depth"),
+    ],
+)
+def test_a_bad_replay_file_is_refused_before_the_proofs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, message: str
+) -> None:
+    bad = tmp_path / "replay.json"
+    bad.write_text(text)
+    started = time.perf_counter()
+    assert main(["evidence", MLCA_T, "--out", str(tmp_path / "out"), "--replay", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and time.perf_counter() - started < 10
+    assert not (tmp_path / "out" / "evidence.json").exists()
 
 
 def test_data_machine_bundles_differ_only_in_the_timestamp(data_bundles: tuple[Path, Path]) -> None:

@@ -7,6 +7,7 @@ Exit codes everywhere: 0 every verdict as expected, 1 a finding, 2 bad input or 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from collections.abc import Sequence
@@ -23,9 +24,9 @@ from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
-from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns, collect, loop_controllers, write_bundle
+from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns, check_replay, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
-from mlca_verify.files import write_atomic
+from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.lemmas import lemma_scripts
@@ -102,6 +103,9 @@ def _parser() -> argparse.ArgumentParser:
     evidence.add_argument("--out", required=True, metavar="DIR", help="output folder")
     _allow_outside(evidence)
     evidence.add_argument("--db", metavar="RESULTS", help="closed-loop results database (SQLite) to include")
+    evidence.add_argument(
+        "--replay", metavar="FILE", help="SUMO replays of the lemmas' counterexamples (mlca-sim replay --json)"
+    )
     evidence.add_argument(
         "--generated", default="generated", metavar="DIR", help="where the code is (default: generated)"
     )
@@ -377,11 +381,24 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         with ResultsDB.open_for_reading(db) as results:
             summary = results.monitor_summary(loop_controllers(spec))
         runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations)
-    ev = collect(spec, readings, Path(args.generated), runs, evidence_now())
+    replay = _replay(Path(args.replay)) if args.replay else None
+    ev = collect(spec, readings, Path(args.generated), runs, evidence_now(), replay=replay)
     for path in write_bundle(ev, Path(args.out)):
         say(f"wrote {path}")
     say("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")
     return EXIT_OK if ev.ok else EXIT_FINDING
+
+
+MAX_REPLAY_BYTES = 16 << 20
+
+
+def _replay(path: Path) -> dict[str, Any]:
+    """The replay document given to `evidence --replay`, read and its shape checked before the long work."""
+    data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
+    try:
+        return check_replay(json.loads(data.decode("utf-8")), str(path))
+    except (ValueError, RecursionError) as err:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        raise UsageError(f"{path}: error: {str(err).splitlines()[0] or type(err).__name__}") from None
 
 
 COMMANDS = {

@@ -9,9 +9,19 @@ from pathlib import Path
 
 from mlca_verify.evidence.collect import NO_DATA_LOOP, ClosedLoopRuns, Evidence, collect, loop_controllers
 from mlca_verify.evidence.page import render_page
+from mlca_verify.evidence.physics import check_replay
 from mlca_verify.files import write_atomic
 
-__all__ = ["NO_DATA_LOOP", "ClosedLoopRuns", "Evidence", "collect", "loop_controllers", "now", "write_bundle"]
+__all__ = [
+    "NO_DATA_LOOP",
+    "ClosedLoopRuns",
+    "Evidence",
+    "check_replay",
+    "collect",
+    "loop_controllers",
+    "now",
+    "write_bundle",
+]
 
 
 def now() -> str:
@@ -22,8 +32,15 @@ def now() -> str:
 
 
 def write_bundle(ev: Evidence, out: Path) -> list[Path]:
+    """evidence.json, index.html and, for a spec with lemmas, each lemma's SMT-LIB 2 query under smt2/."""
     out.mkdir(parents=True, exist_ok=True)
     json_path, html_path = out / "evidence.json", out / "index.html"
+    written = []
+    if ev.physics:
+        (out / "smt2").mkdir(exist_ok=True)
+        for name, text in ev.smt2.items():
+            write_atomic(out / name, text)
+            written.append(out / name)
     write_atomic(json_path, json.dumps(ev.data, indent=2) + "\n")
     write_atomic(html_path, render_page(ev.data))
-    return [json_path, html_path]
+    return [json_path, html_path, *written]

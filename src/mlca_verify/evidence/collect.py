@@ -30,6 +30,7 @@ from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.conform.data import DATA_CHECKS
 from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
+from mlca_verify.evidence import physics
 from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.results import Outcome, Result
@@ -97,19 +98,30 @@ class Evidence:
     generated_at: str
     loop: dict[str, Any] = field(default_factory=dict)  # closed_loop() of the runs given, read once
     data: dict[str, Any] = field(default_factory=dict)
+    replay: dict[str, Any] | None = None  # `mlca-sim replay --json` of lemma counterexamples, checked, if given
+    physics: dict[str, Any] = field(default_factory=dict)  # physics.section(), for a spec with lemmas
+    smt2: dict[str, str] = field(default_factory=dict)  # bundle path -> each lemma's SMT-LIB query, made once
 
     @property
     def ok(self) -> bool:
         loop_ok = self.loop.get("status") != "failed"
         results_ok = all(r.ok for r in self.results) and all(o.ok for o in self.outcomes)
-        return results_ok and loop_ok and (not self.spec.machine.has_data or parametric_ok(self))
+        data_ok = not self.spec.machine.has_data or parametric_ok(self)
+        return results_ok and loop_ok and data_ok and (not self.physics or physics_ok(self.physics))
 
 
 def collect(
-    spec: LoadedSpec, readings: list[str], generated: Path, runs: ClosedLoopRuns | None, generated_at: str
+    spec: LoadedSpec,
+    readings: list[str],
+    generated: Path,
+    runs: ClosedLoopRuns | None,
+    generated_at: str,
+    *,
+    replay: dict[str, Any] | None = None,
 ) -> Evidence:
     """Prove, check conformance and assemble the evidence for `spec`, with its closed-loop `runs` (None: no
-    results database given) read beforehand."""
+    results database given) and the SUMO `replay` of its lemmas' counterexamples (checked by
+    `physics.check_replay`), read beforehand."""
     loaded_readings = [load_spec(p, compare=False) for p in readings]
     if spec.machine.has_data:
         if runs is not None:
@@ -121,8 +133,11 @@ def collect(
         checks = list(CHECKS)
     results = check_all(spec.machine)
     outcomes = conform(spec, generated, checks, lambda _: None).outcomes
-    ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at)
+    ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, replay=replay)
     ev.loop = loop
+    if spec.machine.lemmas:
+        ev.smt2 = physics.smt2_files(spec.machine)
+        ev.physics = physics.section(spec.machine, spec.sha256, results, replay, ev.smt2)
     ev.data = document(ev)
     return ev
 
@@ -153,6 +168,8 @@ def document(ev: Evidence) -> dict[str, Any]:
     }
     if ev.spec.machine.has_data:  # only then: the bundle of a machine without data stays as it was
         doc["data_machine"] = data_machine(ev)
+    if ev.physics:
+        doc["physical_safety"] = ev.physics
     return doc
 
 
@@ -574,4 +591,70 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
             )
     code_goals(node, ev.outcomes, DATA_CHECKS, 4)
     loop_goal(node, ev.loop, 7, NO_DATA_LOOP)
+    if ev.physics:
+        physics_goal(node, ev, 8)
     return nodes
+
+
+def physics_ok(section: dict[str, Any]) -> bool:
+    """Every lemma has its expected verdict, the RSS cross-check did not fail, and every replay given came out as
+    expected."""
+    lemmas_ok = all(x["ok"] for x in section["lemmas"])
+    replays_ok = all(p["as_expected"] for p in section["replay"]["points"])
+    return lemmas_ok and section["ad_rss_lib"]["status"] != "failed" and replays_ok
+
+
+def physics_goal(node: Callable[..., None], ev: Evidence, number: int) -> None:
+    """G<number>: a move starts only into a gap the lemmas prove safe (by RSS when the spec's distances are RSS's):
+    backed by the lemmas that hold, the ad-rss-lib cross-check and the invariants that tie the machine's states
+    to the rules the lemmas are about; the lemmas expected to fail (and their replays) are context."""
+    section = ev.physics
+    g, s = f"G{number}", f"S{number}"
+    rss = section["ad_rss_lib"]["status"] in ("ok", "failed")
+    text = "A move starts only into a gap that is safe by RSS" if rss else "The rules meet what the lemmas state"
+    node(g, "goal", text, "S1", physics_ok(section))
+    how = "Lemmas over the reals (z3), a published reference for the distance, and the invariants that tie every move"
+    node(s, "strategy", how + " to the rule", g)
+    check = section["ad_rss_lib"]
+    reference: list[Solution] = []
+    if check["status"] != "none":
+        ok = None if check["status"] == "not run" else check["status"] == "ok"
+        reference.append((f"ad-rss-lib: {check['detail']}", ok, "#ad-rss-lib"))
+    solutions = _lemma_solutions(ev) + reference + _rule_invariants(ev)
+    for k, (text, ok, link) in enumerate(solutions, 1):
+        node(f"Sn{number}.{k}", "solution", text, s, ok, link=link)
+    for j, x in enumerate((x for x in section["lemmas"] if x["expected"] != "holds"), 1):
+        replays = "; ".join(f"replayed in SUMO: {p['outcome']} (expected {p['expect']})" for p in x["replays"])
+        text = f"lemma {x['id']}: {x['verdict']}, expected {x['expected']}" + (f"; {replays}" if replays else "")
+        node(f"C{number}.{j}", "context", text, g, link=f"#lemma-{anchor(x['id'])}")
+
+
+Solution = tuple[str, bool | None, str]  # text, ok, link
+
+
+def _lemma_solutions(ev: Evidence) -> list[Solution]:
+    """Each lemma expected to hold, with its SMT-LIB query."""
+    return [
+        (
+            f"lemma {x['id']}: {x['verdict']}, expected {x['expected']} ({x['smt2']}, sha256 {x['smt2_sha256'][:12]})",
+            x["ok"],
+            f"#lemma-{anchor(x['id'])}",
+        )
+        for x in ev.physics["lemmas"]
+        if x["expected"] == "holds"
+    ]
+
+
+def _rule_invariants(ev: Evidence) -> list[Solution]:
+    """The invariants that read a rule a holding lemma is about: they tie the machine's states to it."""
+    m = ev.spec.machine
+    rules = set().union(*(physics.premise_definitions(m, x.expr) for x in m.lemmas if x.expect == "holds"))
+    results = {r.prop: r for r in ev.results}
+    found: list[Solution] = []
+    for inv in m.invariants:
+        tied = sorted(physics.named(inv.expr) & rules)
+        if inv.expect == "holds" and tied:
+            r = results[inv.id]
+            text = f"invariant {inv.id} ({show(inv.expr)}): {r.verdict}; it ties the states to {', '.join(tied)}"
+            found.append((text, r.ok, f"#proof-{anchor(inv.id)}"))
+    return found

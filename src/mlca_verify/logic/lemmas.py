@@ -15,7 +15,7 @@ import z3
 
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, python_value, sort_of, value_of
-from mlca_verify.model import Lemma, Machine, Var, Verdict, nodes
+from mlca_verify.model import Expr, Lemma, Machine, Var, Verdict, nodes
 from mlca_verify.spec.names import c_form
 
 Decision = tuple[Verdict, str, Counterexample | None]
@@ -62,14 +62,21 @@ def query(machine: Machine, lemma: Lemma, parametric: bool, timeout_ms: int) -> 
 
 def _read_by(machine: Machine, lemma: Lemma) -> set[str]:
     """The definitions a lemma reads, directly or through others."""
+    names = {d.name for d in machine.definitions}
+    return reads(machine, lemma.expr) & names
+
+
+def reads(machine: Machine, expr: Expr) -> set[str]:
+    """Every name an expression reads, directly or through the definitions it reads (theirs included)."""
     by_name = {d.name: d for d in machine.definitions}
     seen: set[str] = set()
-    todo = [x.name for x in nodes(lemma.expr) if isinstance(x, Var) and x.name in by_name]
+    todo = [x.name for x in nodes(expr) if isinstance(x, Var)]
     while todo:
         name = todo.pop()
         if name not in seen:
             seen.add(name)
-            todo += [x.name for x in nodes(by_name[name].expr) if isinstance(x, Var) and x.name in by_name]
+            if name in by_name:
+                todo += [x.name for x in nodes(by_name[name].expr) if isinstance(x, Var)]
     return seen
 
 

@@ -1,0 +1,265 @@
+"""The physical-safety section of the evidence: each `[[lemma]]` with its params, verdict and SMT-LIB query; the
+cross-check of the spec's RSS distances against Intel's ad-rss-lib; and the SUMO replays of lemma
+counterexamples (`mlca-sim replay --json`), taken as data.
+
+An RSS distance is a definition named `rss_*` of unit m that reads two signals of unit m/s and the params
+`RHO`, `ACCEL_MAX`, `BRAKE_MIN` and `BRAKE_MAX` (docs/lemmas/rss_longitudinal.toml names them so). It is
+evaluated by the engine (z3, exactly) on a grid of speeds and param sets within the declared ranges and compared
+with ad-rss-lib to 1 mm, with either signal as the vehicle behind; the order that agrees is reported.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import z3
+
+from mlca_verify.evidence import adrss
+from mlca_verify.logic.lemmas import lemma_scripts, reads
+from mlca_verify.logic.results import Result
+from mlca_verify.logic.symbolic import StepInputs, System, Valuation, python_value, value_of
+from mlca_verify.model import BinOp, Definition, Expr, Machine, Range, Var, nodes, show
+from mlca_verify.spec.names import c_form
+from mlca_verify.spec.types import show_unit
+
+RSS_PARAMS = ("RHO", "ACCEL_MAX", "BRAKE_MIN", "BRAKE_MAX")
+SPEEDS = (0.0, 2.5, 13.9, 30.0, 41.7, 70.0)  # m/s
+PARAM_SETS = ((1.0, 3.5, 4.0, 8.0), (0.5, 2.0, 3.0, 6.0), (2.0, 1.0, 6.0, 10.0), (0.2, 0.0, 9.5, 9.5))
+TOLERANCE_M = 1e-3
+REPLAY_SCHEMA = "mlca-sim.replay/1"
+
+
+@dataclass(frozen=True)
+class Agreement:
+    definition: str
+    rear: str  # the signal that is the speed of the vehicle behind
+    front: str
+    points: int
+    max_difference_m: float
+
+    @property
+    def ok(self) -> bool:
+        return self.max_difference_m <= TOLERANCE_M
+
+
+def rss_definitions(m: Machine) -> list[Definition]:
+    """The spec's RSS distances: `rss_*` definitions of unit m over two speed signals and the four RSS params."""
+    speeds = {s.name for s in m.signals if show_unit(s.unit) == "m/s"}
+    found = []
+    for d in m.definitions:
+        read = reads(m, d.expr)
+        signals = read & {s.name for s in m.signals}
+        rss_like = d.name.startswith("rss_") and show_unit(d.unit) == "m" and set(RSS_PARAMS) <= read
+        if rss_like and len(signals) == 2 and signals <= speeds:
+            found.append(d)
+    return found
+
+
+def _in(bounds: Range | None, x: float) -> bool:
+    return bounds is None or Fraction(bounds[0]) <= Fraction(x) <= Fraction(bounds[1])
+
+
+def _grid(m: Machine, pair: tuple[str, str]) -> list[tuple[tuple[float, ...], float, float]]:
+    """(params, speed of the first signal, of the second) within the declared ranges."""
+    ranges = {p.name: p.range for p in m.params} | {s.name: s.range for s in m.signals}
+    sets = [ps for ps in PARAM_SETS if all(_in(ranges[n], x) for n, x in zip(RSS_PARAMS, ps, strict=True))]
+    a = [x for x in SPEEDS if _in(ranges[pair[0]], x)]
+    b = [x for x in SPEEDS if _in(ranges[pair[1]], x)]
+    return [(ps, x, y) for ps, x, y in itertools.product(sets, a, b)]
+
+
+def _value(m: Machine, system: System, d: Definition, params: tuple[float, ...], speeds: dict[str, float]) -> float:
+    """The definition's value by the engine's semantics, at these RSS params (the others at their defaults)."""
+    values = {p.name: value_of(p.default, p.type) for p in m.params}
+    values |= {n: value_of(Fraction(x), "real") for n, x in zip(RSS_PARAMS, params, strict=True)}
+    signals = {s.name: value_of(Fraction(0), s.type) for s in m.signals} | {
+        k: value_of(Fraction(x), "real") for k, x in speeds.items()
+    }
+    inputs = {i.name: z3.BoolVal(False) for i in m.inputs}
+    v = Valuation(z3.IntVal(0), {}, StepInputs(inputs, signals, {}), values)
+    return float(python_value(z3.simplify(system.ev(Var(d.name), v))))
+
+
+def agreement(m: Machine, d: Definition) -> Agreement:
+    """The definition against ad-rss-lib, in the order of its two speed signals that agrees best."""
+    system = System(m, (), (), frozenset(), False)
+    pair = tuple(sorted(reads(m, d.expr) & {s.name for s in m.signals}))
+    assert len(pair) == 2
+    grid = _grid(m, (pair[0], pair[1]))
+    best: Agreement | None = None
+    for rear, front in ((pair[0], pair[1]), (pair[1], pair[0])):
+        worst = 0.0
+        for params, x, y in grid:
+            ours = _value(m, system, d, params, {pair[0]: x, pair[1]: y})
+            speed = {pair[0]: x, pair[1]: y}
+            worst = max(worst, abs(ours - adrss.ad_rss_gap(speed[rear], speed[front], params)))
+        candidate = Agreement(d.name, rear, front, len(grid), worst)
+        if best is None or candidate.max_difference_m < best.max_difference_m:
+            best = candidate
+    assert best is not None
+    return best
+
+
+def cross_check(m: Machine) -> dict[str, Any]:
+    definitions = rss_definitions(m)
+    if not definitions:
+        return {"status": "none", "detail": "no RSS distance (rss_* definition) in the spec", "definitions": []}
+    if not adrss.available():
+        return {
+            "status": "not run",
+            "detail": "ad-rss-lib is not installed (pip install ad-rss)",
+            "definitions": [d.name for d in definitions],
+        }
+    found = [agreement(m, d) for d in definitions]
+    ok = all(a.ok for a in found)
+    points = sum(a.points for a in found)
+    detail = (
+        f"{len(found)} RSS distance(s) equal ad-rss-lib's calculateSafeLongitudinalDistanceSameDirection to 1 mm "
+        f"at {points} points (speeds and param sets within the declared ranges)"
+        if ok
+        else "an RSS distance differs from ad-rss-lib's by more than 1 mm: "
+        + ", ".join(f"{a.definition} by {a.max_difference_m:.3g} m" for a in found if not a.ok)
+    )
+    return {
+        "status": "ok" if ok else "failed",
+        "detail": detail,
+        "definitions": [
+            {
+                "name": a.definition,
+                "rear": a.rear,
+                "front": a.front,
+                "points": a.points,
+                "max_difference_m": a.max_difference_m,
+                "ok": a.ok,
+            }
+            for a in found
+        ],
+    }
+
+
+def smt2_files(m: Machine) -> dict[str, str]:
+    """Evidence-relative path -> SMT-LIB 2 query of each lemma (`unsat` means it holds)."""
+    return {f"smt2/{name}": text for name, text in lemma_scripts(m, False, 10_000).items()}
+
+
+def check_replay(doc: object, where: str) -> dict[str, Any]:
+    """A `mlca-sim replay --json` document, its shape checked (it is data from outside); else a ValueError with a
+    one-line reason."""
+    if not isinstance(doc, dict) or doc.get("schema") != REPLAY_SCHEMA:
+        raise ValueError(f"{where}: not a `mlca-sim replay --json` document (schema {REPLAY_SCHEMA})")
+    points = doc.get("points")
+    if not isinstance(points, list):
+        raise ValueError(f"{where}: `points` must be a list")
+    for k, point in enumerate(points):
+        shape = {
+            "source": str,
+            "spec_sha256": str,
+            "lemma": str,
+            "expect": str,
+            "outcome": str,
+            "point": dict,
+            "phases": list,
+        }
+        for key, kind in shape.items():
+            if not isinstance(point, dict) or not isinstance(point.get(key), kind):
+                raise ValueError(f"{where}: points[{k}].{key} is missing or not a {kind.__name__}")
+        for j, ph in enumerate(point["phases"]):
+            if not _is_phase(ph):
+                raise ValueError(f"{where}: points[{k}].phases[{j}] is not a replayed phase")
+    return doc
+
+
+def _is_phase(ph: object) -> bool:
+    return (
+        isinstance(ph, dict)
+        and isinstance(ph.get("name"), str)
+        and isinstance(ph.get("collisions"), list)
+        and isinstance(ph.get("vehicles"), list)
+        and all(isinstance(v, dict) for v in ph["vehicles"])
+    )
+
+
+def replays_of(replay: dict[str, Any] | None, spec_sha256: str) -> dict[str, list[dict[str, Any]]]:
+    """Lemma id -> the replayed points of its counterexample, from this very spec (by its sha256)."""
+    found: dict[str, list[dict[str, Any]]] = {}
+    for point in (replay or {}).get("points", []):
+        if point.get("spec_sha256") == spec_sha256 and point.get("lemma"):
+            found.setdefault(point["lemma"], []).append(point)
+    return found
+
+
+def premise_definitions(m: Machine, expr: Expr) -> set[str]:
+    """For a lemma `a -> b`, the definitions `a` names (the rule the lemma is about); none for another form."""
+    if isinstance(expr, BinOp) and expr.op == "->":
+        return named(expr.left) & {d.name for d in m.definitions}
+    return set()
+
+
+def named(expr: Expr) -> set[str]:
+    """The names an expression reads itself (not through definitions)."""
+    return {x.name for x in nodes(expr) if isinstance(x, Var)}
+
+
+def section(
+    m: Machine, spec_sha256: str, results: list[Result], replay: dict[str, Any] | None, files: dict[str, str]
+) -> dict[str, Any]:
+    """The section's data; `files` are the lemmas' queries (`smt2_files`) as the bundle holds them: z3 names the
+    terms of a query after its own ids, so two renderings of one query in a process differ in those names."""
+    by_id = {r.prop: r for r in results if r.kind == "lemma"}
+    replayed = replays_of(replay, spec_sha256)
+    lemmas = []
+    for lemma in m.lemmas:
+        r = by_id[lemma.id]
+        name = f"smt2/{m.name.lower()}_{c_form(lemma.id)}.smt2"
+        used = sorted(reads(m, lemma.expr) & {p.name for p in m.params})
+        lemmas.append(
+            {
+                "id": lemma.id,
+                "expr": show(lemma.expr),
+                "doc": lemma.doc,
+                "cite": lemma.cite,
+                "parametric": lemma.parametric,
+                "params": used,
+                "verdict": r.verdict,
+                "expected": r.expected,
+                "ok": r.ok,
+                "detail": r.detail,
+                "smt2": name,
+                "smt2_sha256": hashlib.sha256(files[name].encode()).hexdigest(),
+                "replays": [_replay_summary(p) for p in replayed.get(lemma.id, [])],
+            }
+        )
+    return {
+        "lemmas": lemmas,
+        "ad_rss_lib": cross_check(m),
+        "replay": {
+            "given": replay is not None,
+            "points": [_replay_summary(p) for p in (replay or {}).get("points", [])],
+        },
+    }
+
+
+def _replay_summary(point: dict[str, Any]) -> dict[str, Any]:
+    phases = point.get("phases", [])
+    return {
+        "source": str(point.get("source", "")),
+        "point": point.get("point", {}),
+        "expect": point.get("expect"),
+        "outcome": point.get("outcome"),
+        "as_expected": point.get("outcome") == point.get("expect"),
+        "phases": [
+            {
+                "name": str(ph.get("name", "")),
+                "unsafe": bool(ph.get("unsafe")),
+                "collisions": ph.get("collisions", []),
+                "min_gap_lead_m": ph.get("min_gap_lead_m"),
+                "min_gap_follow_m": ph.get("min_gap_follow_m"),
+                "beyond": [v.get("id") for v in ph.get("vehicles", []) if v.get("beyond")],
+            }
+            for ph in phases
+        ],
+    }
