@@ -121,28 +121,37 @@ static double sample(double hi)
     }
 }
 
-typedef struct { double lead, follow, v_follow; } lane_t;
+typedef struct { double lead, follow, v_follow, v_lead; } lane_t;
+
+/* RSS's distance for a vehicle at `rear` behind one at `front` (the spec's reach minus stop), as the code computes
+ * it: a gap on it sits on a threshold of L or R. */
+static double rss_edge(double rear, double front, const mlca_t_params_t *p)
+{
+    const double v_end = rear + p->RHO * p->ACCEL_MAX;
+    return rear * p->RHO + p->ACCEL_MAX * p->RHO * p->RHO / 2.0 + v_end * v_end / (2.0 * p->BRAKE_MIN)
+        - front * front / (2.0 * p->BRAKE_MAX);
+}
 
 static void new_lane(lane_t *l, double v, const mlca_t_params_t *p)
 {
     l->lead = sample(1000.0);
     l->follow = sample(1000.0);
     l->v_follow = sample(70.0);
+    l->v_lead = sample(70.0);
     if (one_in(16u)) { /* on a threshold of L or R */
-        const double closing = l->v_follow - v;
         switch (next() % 3u) {
-        case 0u: l->lead = p->TIME_GAP * v; break;
-        case 1u: l->follow = p->TIME_GAP * l->v_follow; break;
-        default: l->follow = (closing * closing) / (2.0 * p->FOLLOWER_DECEL); break;
+        case 0u: l->lead = rss_edge(v, l->v_lead, p); break;
+        case 1u: l->follow = rss_edge(l->v_follow, v, p); break;
+        default: l->follow = p->MIN_GAP; break;
         }
     }
 }
 
 static const mlca_t_params_t PARAMS[4] = {
-    {20, 1.0, 3.0, 4.0}, /* the defaults */
-    {1, 0.5, 1.0, 9.0},
-    {100, 3.0, 10.0, 1.0},
-    {7, 1.7, 5.5, 2.5},
+    {20, 3.0, 1.0, 3.5, 4.0, 8.0}, /* the defaults */
+    {1, 1.0, 0.5, 2.0, 3.0, 6.0},
+    {100, 10.0, 3.0, 10.0, 1.0, 12.0},
+    {7, 5.5, 0.2, 0.0, 9.5, 9.5},
 };
 
 static int same(const mlca_t_ctx_t *a, const mlca_t_ctx_t *b, const mlca_t_outputs_t *oa,
@@ -161,7 +170,7 @@ int main(void)
     unsigned m, n;
     mlca_t_ctx_t cg, ch;
     mlca_t_outputs_t og = {0}, oh = {0};
-    mlca_t_inputs_t in = {false, false, 0.0, 1000.0, 1000.0, 0.0, 1000.0, 1000.0, 0.0};
+    mlca_t_inputs_t in = {false, false, 0.0, 1000.0, 1000.0, 0.0, 0.0, 1000.0, 1000.0, 0.0, 0.0};
     lane_t left, right;
     mlca_t_init(&cg);
     mlca_t_hand_init(&ch);
@@ -185,12 +194,14 @@ int main(void)
             in.gap_lead_left = left.lead;
             in.gap_follow_left = left.follow;
             in.v_follow_left = left.v_follow;
+            in.v_lead_left = left.v_lead;
         }
         if (one_in(calm ? 512u : 12u)) {
             new_lane(&right, in.v, p);
             in.gap_lead_right = right.lead;
             in.gap_follow_right = right.follow;
             in.v_follow_right = right.v_follow;
+            in.v_lead_right = right.v_lead;
         }
         if ((k & 0xFFFFu) == 0xFFFFu) { /* a corrupted mode starts again from init */
             cg.mode = ch.mode = (mlca_t_state_t)(4u + (unsigned)(k >> 16) % 3u);

@@ -30,7 +30,7 @@ from typing import Any
 
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.files import read_regular
-from sim_check.scenario import sumo_bin
+from sim_check.scenario import COLLISION_OPTIONS, QUIET_OPTIONS, sumo_bin
 
 MAX_REPLAY_BYTES = 1 << 20
 STEP_S = 0.1
@@ -312,16 +312,8 @@ def _sumo_args(net: Path, routes: Path) -> list[str]:
         str(STEP_S),
         "--step-method.ballistic",
         "true",
-        "--collision.action",
-        "warn",
-        "--collision.mingap-factor",
-        "0",
-        "--no-step-log",
-        "true",
-        "--duration-log.disable",
-        "true",
-        "--no-warnings",
-        "true",
+        *COLLISION_OPTIONS,
+        *QUIET_OPTIONS,
     ]
 
 

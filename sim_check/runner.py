@@ -25,7 +25,7 @@ from sim_check import mobil
 from sim_check.controllers import Controller, Setup, load_controller, setup_of
 from sim_check.reads import Leader, Reads
 from sim_check.results import AvMetrics, RunResult, Violation
-from sim_check.scenario import Scenario, build, sumo_bin
+from sim_check.scenario import COLLISION_OPTIONS, QUIET_OPTIONS, Scenario, build, sumo_bin
 from sim_check.sensing import LaneClaim, Network, decides_on, sense
 
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
@@ -337,18 +337,8 @@ def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: t
         str(seed),
         "--step-length",
         str(scenario.traffic.step_s),
-        "--collision.action",
-        "warn",
-        "--collision.check-junctions",
-        "true",
-        "--collision.mingap-factor",
-        "0",
-        "--no-step-log",
-        "true",
-        "--duration-log.disable",
-        "true",
-        "--no-warnings",
-        "true",
+        *COLLISION_OPTIONS,
+        *QUIET_OPTIONS,
         *options,
     ]
 

@@ -219,6 +219,19 @@ class Built:
     av_ids: tuple[str, ...]
 
 
+# SUMO's options every run shares: collisions are physical contact, reported and driven on (SUMO's own files and
+# libsumo's getCollisions list them); and nothing printed into the Python process (sumo-facts.md).
+COLLISION_OPTIONS = (
+    "--collision.action",
+    "warn",
+    "--collision.check-junctions",
+    "true",
+    "--collision.mingap-factor",
+    "0",
+)
+QUIET_OPTIONS = ("--no-step-log", "true", "--duration-log.disable", "true", "--no-warnings", "true")
+
+
 def sumo_bin(tool: str) -> str:
     import sumo
 
