@@ -149,9 +149,9 @@ static void new_lane(lane_t *l, double v, const mlca_t_params_t *p)
 
 static const mlca_t_params_t PARAMS[4] = {
     {20, 3.0, 1.0, 3.5, 4.0, 8.0}, /* the defaults */
-    {1, 1.0, 0.5, 2.0, 3.0, 6.0},
+    {1, 1.0, 0.5, 2.0, 3.0, 9.0},
     {100, 10.0, 3.0, 10.0, 1.0, 12.0},
-    {7, 5.5, 0.2, 0.0, 9.5, 9.5},
+    {7, 5.5, 0.2, 0.0, 8.0, 8.0},
 };
 
 static int same(const mlca_t_ctx_t *a, const mlca_t_ctx_t *b, const mlca_t_outputs_t *oa,

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, TypeVar
 from mlca_verify import cli_base
 from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError
+from mlca_verify.escape import terminal
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.db import Plan, ResultsDB
 from sim_check.results import MARKS_KM, Job, RunResult
@@ -298,13 +299,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as work:
         for k, point in enumerate(points):
             phases = replay(point, Path(work) / str(k))
-            print(describe(point, phases))
+            print("\n".join(terminal(line) for line in describe(point, phases).splitlines()))
             outcomes.append((point, phases))
     unsafe = sum(outcome(phases) == "unsafe" for _, phases in outcomes)
     unexpected = [p.source for p, phases in outcomes if outcome(phases) != p.expect]
     print(
         f"{len(outcomes)} point(s) replayed: {unsafe} unsafe (a collision, or braking beyond a declared limit); "
-        + (f"{len(unexpected)} not as expected: {', '.join(unexpected)}" if unexpected else "all as expected")
+        + (terminal(f"{len(unexpected)} not as expected: {', '.join(unexpected)}") if unexpected else "all as expected")
     )
     if args.json:
         write_json(str(args.json), {"schema": "mlca-sim.replay/1", "points": [as_json(*o) for o in outcomes]})

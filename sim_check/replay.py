@@ -40,8 +40,8 @@ GAP_RANGE = (0.0, 1000.0)  # m
 PARAM_RANGES = {  # RSS's params, as docs/lemmas/rss_longitudinal.toml bounds them
     "RHO": (0.1, 3.0),
     "ACCEL_MAX": (0.0, 10.0),
-    "BRAKE_MIN": (1.0, 10.0),
-    "BRAKE_MAX": (1.0, 12.0),
+    "BRAKE_MIN": (1.0, 8.0),  # RSS's distance is collision-free only when BRAKE_MIN <= BRAKE_MAX
+    "BRAKE_MAX": (8.0, 12.0),
 }
 AD_RSS_DEFAULTS = {"RHO": 1.0, "ACCEL_MAX": 3.5, "BRAKE_MIN": 4.0, "BRAKE_MAX": 8.0}
 POINT_KEYS = ("v", "gap_lead", "v_lead", "gap_follow", "v_follow")
@@ -144,10 +144,10 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> lis
         _counterexample(path, spec, result, side)
         for spec in _list(doc.get("specs"))
         for result in _list(spec.get("results") if isinstance(spec, dict) else None)
-        if _wanted(result, lemma)
+        if _wanted(result, lemma) and (lemma is not None or _about(_first_step(result), side))
     ]
     if not points:
-        what = f"lemma {lemma}" if lemma else "a violated lemma"
+        what = f"lemma {lemma}" if lemma else f"a violated lemma about the {side} side"
         raise UsageError(f"{path}: error: no counterexample of {what} in this file")
     return points
 
@@ -160,6 +160,11 @@ def _counterexample(path: Path, spec: dict[str, Any], result: dict[str, Any], si
     signals = steps[0].get("signals") if steps and isinstance(steps[0], dict) else None
     if not isinstance(cx, dict) or not isinstance(signals, dict):
         raise UsageError(f"{path}: error: lemma {name} has no counterexample to replay")
+    if not _about(steps[0], side):
+        raise UsageError(
+            f"{path}: error: lemma {name} reads no definition of the {side} side (none named *_{side}): its "
+            f"counterexample's {side} signals are whatever the solver chose; give the lemma's side with --side"
+        )
     names = {"v": "v", **{k: f"{k}_{side}" for k in POINT_KEYS[1:]}}
     missing = [n for n in names.values() if n not in signals]
     if missing:
@@ -173,6 +178,18 @@ def _counterexample(path: Path, spec: dict[str, Any], result: dict[str, Any], si
     expect = "unsafe" if result.get("expected") == "violated" else "safe"
     sha = str(spec.get("sha256", ""))
     return replace(point, expect=expect, spec=str(spec.get("path")), spec_sha256=sha, lemma=str(name))
+
+
+def _first_step(result: dict[str, Any]) -> dict[str, Any]:
+    cx = result.get("counterexample")
+    steps = _list(cx.get("steps")) if isinstance(cx, dict) else []
+    return steps[0] if steps and isinstance(steps[0], dict) else {}
+
+
+def _about(step: dict[str, Any], side: str) -> bool:
+    """Whether a counterexample's lemma reads a definition of that side (named `*_left` or `*_right`)."""
+    read = step.get("definitions")
+    return isinstance(read, dict) and any(str(k).endswith(f"_{side}") for k in read)
 
 
 def _list(value: object) -> list[Any]:
@@ -205,10 +222,10 @@ def _number(path: Path, key: str, value: object, bounds: tuple[float, float]) ->
         raise UsageError(f"{path}: error: {key} is missing")
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise UsageError(f"{path}: error: {key} must be a number, not {type(value).__name__}")
-    number = float(value)
-    if not bounds[0] <= number <= bounds[1]:  # NaN fails too
-        raise UsageError(f"{path}: error: {key} = {value} is outside [{bounds[0]:g}, {bounds[1]:g}]")
-    return number
+    if not bounds[0] <= value <= bounds[1]:  # compared as given (an int of any size), NaN fails too
+        shown = value if isinstance(value, float) or abs(value) < 10**15 else "a number that large"
+        raise UsageError(f"{path}: error: {key} = {shown} is outside [{bounds[0]:g}, {bounds[1]:g}]")
+    return float(value)
 
 
 # ---- the worst case as speeds -----------------------------------------------------------------------------------
@@ -221,8 +238,8 @@ def front_speed(v0: float, t: float, p: dict[str, float]) -> float:
 
 def rear_speed(v0: float, t: float, p: dict[str, float]) -> float:
     """A vehicle behind: accelerating at ACCEL_MAX for RHO, then braking at BRAKE_MIN to a stop."""
-    if t <= p["RHO"]:
-        return v0 + p["ACCEL_MAX"] * t
+    if t <= p["RHO"] + 1e-9:
+        return v0 + p["ACCEL_MAX"] * min(t, p["RHO"])
     return max(0.0, v0 + p["ACCEL_MAX"] * p["RHO"] - p["BRAKE_MIN"] * (t - p["RHO"]))
 
 
@@ -271,9 +288,9 @@ def _network(point: Point, work: Path) -> tuple[Path, float]:
 
 
 def _routes(point: Point, work: Path, start: float) -> Path:
-    """The three vehicles, placed so that the gaps are the point's when the AV has entered its new lane (two steps
-    after insertion, at constant speeds)."""
-    before = 2 * STEP_S
+    """The three vehicles, placed so that the gaps are the point's when the AV has entered its new lane: SUMO
+    inserts them in the first step and moves them, at constant speeds, in the second, when the AV changes lane."""
+    before = STEP_S
     fol = start
     av = fol + point.gap_follow + LENGTH_M
     lead = av + point.gap_lead + LENGTH_M
@@ -286,7 +303,7 @@ def _routes(point: Point, work: Path, start: float) -> Path:
     lines = [
         "<routes>",
         f'  <vType id="replay" length="{LENGTH_M}" minGap="0" maxSpeed="100" accel="{max(p["ACCEL_MAX"], 0.1)}" '
-        f'decel="{p["BRAKE_MIN"]}" emergencyDecel="{max(EMERGENCY_DECEL, p["BRAKE_MAX"])}" '
+        f'decel="{p["BRAKE_MIN"]}" emergencyDecel="{max(EMERGENCY_DECEL, p["BRAKE_MAX"], p["BRAKE_MIN"])}" '
         f'apparentDecel="{p["BRAKE_MAX"]}" tau="{STEP_S}" sigma="0" speedDev="0"/>',
         '  <route id="r" edges="road"/>',
     ]
@@ -343,6 +360,8 @@ def _phase(sumo: Any, point: Point, name: str, net: Path, routes: Path) -> Phase
         if sumo.vehicle.getLaneIndex("av") != 1:
             raise ToolError("error: SUMO did not make the AV's lane change")
         phase.start_gaps = _gaps(sumo)
+        if abs(phase.start_gaps[0] - point.gap_lead) > 1e-6 or abs(phase.start_gaps[1] - point.gap_follow) > 1e-6:
+            raise ToolError(f"error: SUMO placed the vehicles {phase.start_gaps} apart, not at the point's gaps")
         _drive(sumo, point, phase, roles, start_speed)
     finally:
         sumo.close()
@@ -353,6 +372,7 @@ def _drive(sumo: Any, point: Point, phase: Phase, roles: dict[str, str], v0: dic
     p = point.params
     last = {vid: sumo.vehicle.getSpeed(vid) for vid in roles}
     steps = math.ceil(horizon(point) / STEP_S)
+    responding = p["RHO"] + 1e-9  # a step ends within the response time when k * STEP_S <= RHO (binary64 aside)
     for k in range(1, steps + 1):
         t = k * STEP_S
         for vid, role in roles.items():
@@ -361,7 +381,7 @@ def _drive(sumo: Any, point: Point, phase: Phase, roles: dict[str, str], v0: dic
             elif role == "steady":
                 sumo.vehicle.setSpeed(vid, v0[vid])
             else:  # behind: the response time ignores safety; then brake at BRAKE_MIN, SUMO's safe speed permitting
-                sumo.vehicle.setSpeedMode(vid, 0 if t <= p["RHO"] else 1)
+                sumo.vehicle.setSpeedMode(vid, 0 if t <= responding else 1)
                 sumo.vehicle.setSpeed(vid, rear_speed(v0[vid], t, p))
         sumo.simulationStep()
         for c in sumo.simulation.getCollisions():
@@ -428,6 +448,11 @@ def describe(point: Point, phases: list[Phase]) -> str:
     return "\n".join(lines)
 
 
+def _finite(x: float) -> float | None:
+    """JSON has no NaN or infinity: a gap never measured is null."""
+    return x if math.isfinite(x) else None
+
+
 def as_json(point: Point, phases: list[Phase]) -> dict[str, Any]:
     return {
         "point": {k: getattr(point, k) for k in POINT_KEYS},
@@ -443,9 +468,9 @@ def as_json(point: Point, phases: list[Phase]) -> dict[str, Any]:
                 "name": ph.name,
                 "unsafe": ph.unsafe,
                 "collisions": ph.collisions,
-                "min_gap_lead_m": ph.min_gap_lead,
-                "min_gap_follow_m": ph.min_gap_follow,
-                "start_gaps_m": list(ph.start_gaps),
+                "min_gap_lead_m": _finite(ph.min_gap_lead),
+                "min_gap_follow_m": _finite(ph.min_gap_follow),
+                "start_gaps_m": [_finite(g) for g in ph.start_gaps],
                 "simulated_s": round(ph.seconds, 6),
                 "vehicles": [{**asdict(v), "beyond": v.beyond} for v in ph.vehicles],
             }

@@ -323,13 +323,23 @@ def test_a_replay_of_another_spec_is_not_counted_for_this_one(tmp_path: Path) ->
     point = {"source": "x", "spec_sha256": "0" * 64, "lemma": "L", "expect": "safe", "outcome": "safe"}
     doc = check_replay({"schema": "mlca-sim.replay/1", "points": [{**point, "point": {}, "phases": []}]}, "f")
     assert replays_of(doc, "1" * 64) == {} and list(replays_of(doc, "0" * 64)) == ["L"]
+    # an outcome is what its phases say, whatever the file claims
+    crashed = {"name": "leader brakes", "collisions": [["av", "leader"]], "vehicles": []}
+    with pytest.raises(ValueError, match="its phases say 'unsafe'"):
+        check_replay({"schema": "mlca-sim.replay/1", "points": [{**point, "point": {}, "phases": [crashed]}]}, "f")
 
 
 @pytest.mark.parametrize(
     ("text", "message"),
     [
         ("{", "Expecting property name"),
-        ('{"schema": "mlca-sim.replay/1", "points": [{"source": 1}]}', "points[0].source is missing or not a str"),
+        ('{"schema": "mlca-sim.replay/1", "points": [{"source": 1}]}', "points[0].source is missing or not a string"),
+        ('{"schema": "mlca-sim.replay/1", "points": [NaN]}', "NaN is not a number here"),
+        (
+            '{"schema": "mlca-sim.replay/1", "points": [{"source": "s", "spec_sha256": "", "lemma": "", "expect": "safe",'
+            ' "outcome": "unsafe", "point": {}, "phases": [{"name": "p", "collisions": [5], "vehicles": []}]}]}',
+            "collisions must be a list of pairs of vehicle ids",
+        ),
         ('{"schema": "other"}', "not a `mlca-sim replay --json` document"),
         ("[" * 50_000, "maximum recursion depth"),
     ],

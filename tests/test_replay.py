@@ -104,6 +104,22 @@ def test_the_cli_replays_every_violated_lemma_as_expected(
     assert "NOT AS EXPECTED" in capsys.readouterr().out
 
 
+def test_unequal_speeds_start_at_the_points_gaps(tmp_path: Path) -> None:
+    """The vehicles are placed one step of motion back: SUMO inserts them, then moves them once as the AV changes
+    lane (replay raises if the gaps differ from the point's when the worst case begins)."""
+    point = Point(20.0, 30.0, 10.0, 40.0, 30.0, dict(AD_RSS_DEFAULTS), "unequal")
+    phases = replay(point, tmp_path)
+    assert all(ph.start_gaps == pytest.approx((30.0, 40.0), abs=1e-6) for ph in phases)
+    assert not _l_accepts(point) and all(ph.unsafe for ph in phases)
+
+
+def test_a_lemma_is_replayed_on_its_own_side(check_json: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["replay", str(check_json), "--lemma", HIGHWAY, "--side", "right"]) == 2
+    assert "reads no definition of the right side" in capsys.readouterr().err
+    assert main(["replay", str(check_json), "--side", "right"]) == 2  # no violated lemma there
+    assert "no counterexample of a violated lemma about the right side" in capsys.readouterr().err
+
+
 def test_the_worst_case_profiles() -> None:
     p = dict(AD_RSS_DEFAULTS)
     assert rear_speed(20.0, 0.5, p) == pytest.approx(21.75)
@@ -131,6 +147,7 @@ BAD = [
     ),
     ("table", "[other]\n", "a replay file holds a [point] table"),
     ("expect", '[point]\nexpect = "maybe"\n', 'expect must be "safe" or "unsafe"'),
+    ("huge", "[point]\nv = 1" + "0" * 400 + "\n", "v = a number that large is outside"),
 ]
 
 

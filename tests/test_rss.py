@@ -26,9 +26,9 @@ PARAM_NAMES = ("RHO", "ACCEL_MAX", "BRAKE_MIN", "BRAKE_MAX")
 SPEEDS = (0.0, 2.5, 13.9, 30.0, 41.7, 70.0)
 PARAMS = (  # RHO, ACCEL_MAX, BRAKE_MIN, BRAKE_MAX: ad-rss-lib's defaults, then others within the ranges
     (1.0, 3.5, 4.0, 8.0),
-    (0.5, 2.0, 3.0, 6.0),
+    (0.5, 2.0, 3.0, 9.0),
     (2.0, 1.0, 6.0, 10.0),
-    (0.2, 0.0, 9.5, 9.5),
+    (0.2, 0.0, 8.0, 8.0),
 )
 
 

@@ -392,11 +392,15 @@ def cmd_evidence(args: argparse.Namespace) -> int:
 MAX_REPLAY_BYTES = 16 << 20
 
 
+def _no_constant(name: str) -> object:
+    raise ValueError(f"{name} is not a number here")
+
+
 def _replay(path: Path) -> dict[str, Any]:
     """The replay document given to `evidence --replay`, read and its shape checked before the long work."""
     data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
     try:
-        return check_replay(json.loads(data.decode("utf-8")), str(path))
+        return check_replay(json.loads(data.decode("utf-8"), parse_constant=_no_constant), str(path))
     except (ValueError, RecursionError) as err:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
         raise UsageError(f"{path}: error: {str(err).splitlines()[0] or type(err).__name__}") from None
 

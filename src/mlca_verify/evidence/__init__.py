@@ -35,6 +35,7 @@ def write_bundle(ev: Evidence, out: Path) -> list[Path]:
     """evidence.json, index.html and, for a spec with lemmas, each lemma's SMT-LIB 2 query under smt2/."""
     out.mkdir(parents=True, exist_ok=True)
     json_path, html_path = out / "evidence.json", out / "index.html"
+    page = render_page(ev.data)  # before anything is written: a page that cannot be made leaves the old bundle
     written = []
     if ev.physics:
         (out / "smt2").mkdir(exist_ok=True)
@@ -42,5 +43,5 @@ def write_bundle(ev: Evidence, out: Path) -> list[Path]:
             write_atomic(out / name, text)
             written.append(out / name)
     write_atomic(json_path, json.dumps(ev.data, indent=2) + "\n")
-    write_atomic(html_path, render_page(ev.data))
+    write_atomic(html_path, page)
     return [json_path, html_path, *written]

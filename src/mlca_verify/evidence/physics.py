@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -28,7 +29,7 @@ from mlca_verify.spec.types import show_unit
 
 RSS_PARAMS = ("RHO", "ACCEL_MAX", "BRAKE_MIN", "BRAKE_MAX")
 SPEEDS = (0.0, 2.5, 13.9, 30.0, 41.7, 70.0)  # m/s
-PARAM_SETS = ((1.0, 3.5, 4.0, 8.0), (0.5, 2.0, 3.0, 6.0), (2.0, 1.0, 6.0, 10.0), (0.2, 0.0, 9.5, 9.5))
+PARAM_SETS = ((1.0, 3.5, 4.0, 8.0), (0.5, 2.0, 3.0, 9.0), (2.0, 1.0, 6.0, 10.0), (0.2, 0.0, 8.0, 8.0))
 TOLERANCE_M = 1e-3
 REPLAY_SCHEMA = "mlca-sim.replay/1"
 
@@ -147,40 +148,66 @@ def smt2_files(m: Machine) -> dict[str, str]:
 
 
 def check_replay(doc: object, where: str) -> dict[str, Any]:
-    """A `mlca-sim replay --json` document, its shape checked (it is data from outside); else a ValueError with a
-    one-line reason."""
+    """A `mlca-sim replay --json` document (data from outside), checked and rebuilt from what it must hold: every
+    point's outcome follows from its phases, every phase's from its collisions and its vehicles' braking. Else a
+    ValueError with a one-line reason."""
     if not isinstance(doc, dict) or doc.get("schema") != REPLAY_SCHEMA:
         raise ValueError(f"{where}: not a `mlca-sim replay --json` document (schema {REPLAY_SCHEMA})")
     points = doc.get("points")
     if not isinstance(points, list):
         raise ValueError(f"{where}: `points` must be a list")
-    for k, point in enumerate(points):
-        shape = {
-            "source": str,
-            "spec_sha256": str,
-            "lemma": str,
-            "expect": str,
-            "outcome": str,
-            "point": dict,
-            "phases": list,
-        }
-        for key, kind in shape.items():
-            if not isinstance(point, dict) or not isinstance(point.get(key), kind):
-                raise ValueError(f"{where}: points[{k}].{key} is missing or not a {kind.__name__}")
-        for j, ph in enumerate(point["phases"]):
-            if not _is_phase(ph):
-                raise ValueError(f"{where}: points[{k}].phases[{j}] is not a replayed phase")
-    return doc
+    return {"points": [_checked_point(point, f"{where}: points[{k}]") for k, point in enumerate(points)]}
 
 
-def _is_phase(ph: object) -> bool:
-    return (
-        isinstance(ph, dict)
-        and isinstance(ph.get("name"), str)
-        and isinstance(ph.get("collisions"), list)
-        and isinstance(ph.get("vehicles"), list)
-        and all(isinstance(v, dict) for v in ph["vehicles"])
+def _checked_point(point: object, at: str) -> dict[str, Any]:
+    if not isinstance(point, dict):
+        raise ValueError(f"{at} is not an object")
+    for key in ("source", "spec_sha256", "lemma"):
+        if not isinstance(point.get(key), str):
+            raise ValueError(f"{at}.{key} is missing or not a string")
+    values, phases = point.get("point"), point.get("phases")
+    if point.get("expect") not in ("safe", "unsafe"):
+        raise ValueError(f'{at}.expect must be "safe" or "unsafe"')
+    if not isinstance(values, dict) or not all(isinstance(k, str) and _number(x) for k, x in values.items()):
+        raise ValueError(f"{at}.point must map names to finite numbers")
+    if not isinstance(phases, list):
+        raise ValueError(f"{at}.phases must be a list")
+    checked = [_checked_phase(ph, f"{at}.phases[{j}]") for j, ph in enumerate(phases)]
+    outcome = "unsafe" if any(ph["unsafe"] for ph in checked) else "safe"
+    if point.get("outcome") != outcome:
+        raise ValueError(f"{at}.outcome is {point.get('outcome')!r}, but its phases say {outcome!r}")
+    kept = {k: point[k] for k in ("source", "spec_sha256", "lemma", "expect")}
+    return {**kept, "point": values, "outcome": outcome, "phases": checked}
+
+
+def _checked_phase(ph: object, at: str) -> dict[str, Any]:
+    if not isinstance(ph, dict) or not isinstance(ph.get("name"), str):
+        raise ValueError(f"{at} is not a replayed phase (no name)")
+    collisions, vehicles = ph.get("collisions"), ph.get("vehicles")
+    pairs_ok = isinstance(collisions, list) and all(
+        isinstance(c, list) and len(c) == 2 and all(isinstance(x, str) for x in c) for c in collisions
     )
+    if not pairs_ok:
+        raise ValueError(f"{at}.collisions must be a list of pairs of vehicle ids")
+    if not isinstance(vehicles, list) or not all(
+        isinstance(v, dict) and isinstance(v.get("id"), str) and isinstance(v.get("beyond"), bool) for v in vehicles
+    ):
+        raise ValueError(f"{at}.vehicles must be a list of vehicles with an id and `beyond`")
+    gaps = {k: ph.get(k) for k in ("min_gap_lead_m", "min_gap_follow_m")}
+    if not all(g is None or _number(g) for g in gaps.values()):
+        raise ValueError(f"{at}: the smallest gaps must be finite numbers")
+    beyond = [v["id"] for v in vehicles if v["beyond"]]
+    return {
+        "name": ph["name"],
+        "unsafe": bool(collisions or beyond),
+        "collisions": collisions,
+        **gaps,
+        "beyond": beyond,
+    }
+
+
+def _number(x: object) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
 
 
 def replays_of(replay: dict[str, Any] | None, spec_sha256: str) -> dict[str, list[dict[str, Any]]]:
@@ -211,6 +238,7 @@ def section(
     terms of a query after its own ids, so two renderings of one query in a process differ in those names."""
     by_id = {r.prop: r for r in results if r.kind == "lemma"}
     replayed = replays_of(replay, spec_sha256)
+    ours = [p for p in (replay or {}).get("points", []) if p["spec_sha256"] == spec_sha256]
     lemmas = []
     for lemma in m.lemmas:
         r = by_id[lemma.id]
@@ -238,28 +266,17 @@ def section(
         "ad_rss_lib": cross_check(m),
         "replay": {
             "given": replay is not None,
-            "points": [_replay_summary(p) for p in (replay or {}).get("points", [])],
+            "points": [_replay_summary(p) for p in ours],
+            "other_specs": len((replay or {}).get("points", [])) - len(ours),
         },
     }
 
 
 def _replay_summary(point: dict[str, Any]) -> dict[str, Any]:
-    phases = point.get("phases", [])
+    """A checked point (`check_replay`) as the section shows it."""
+    keys = ("source", "point", "expect", "outcome")
     return {
-        "source": str(point.get("source", "")),
-        "point": point.get("point", {}),
-        "expect": point.get("expect"),
-        "outcome": point.get("outcome"),
-        "as_expected": point.get("outcome") == point.get("expect"),
-        "phases": [
-            {
-                "name": str(ph.get("name", "")),
-                "unsafe": bool(ph.get("unsafe")),
-                "collisions": ph.get("collisions", []),
-                "min_gap_lead_m": ph.get("min_gap_lead_m"),
-                "min_gap_follow_m": ph.get("min_gap_follow_m"),
-                "beyond": [v.get("id") for v in ph.get("vehicles", []) if v.get("beyond")],
-            }
-            for ph in phases
-        ],
+        **{k: point[k] for k in keys},
+        "as_expected": point["outcome"] == point["expect"],
+        "phases": point["phases"],
     }
