@@ -30,7 +30,7 @@ from typing import Any
 
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.files import read_regular
-from sim_check.scenario import COLLISION_OPTIONS, QUIET_OPTIONS, sumo_bin
+from sim_check.scenario import sumo_bin, sumo_command
 
 MAX_REPLAY_BYTES = 1 << 20
 STEP_S = 0.1
@@ -319,19 +319,7 @@ def _routes(point: Point, work: Path, start: float) -> Path:
 
 
 def _sumo_args(net: Path, routes: Path) -> list[str]:
-    return [
-        sumo_bin("sumo"),
-        "-n",
-        str(net),
-        "-r",
-        str(routes),
-        "--step-length",
-        str(STEP_S),
-        "--step-method.ballistic",
-        "true",
-        *COLLISION_OPTIONS,
-        *QUIET_OPTIONS,
-    ]
+    return sumo_command(net, routes, "--step-length", str(STEP_S), "--step-method.ballistic", "true")
 
 
 ROLES = {  # phase -> role of leader, av, follower

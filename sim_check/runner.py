@@ -25,7 +25,7 @@ from sim_check import mobil
 from sim_check.controllers import Controller, Setup, load_controller, setup_of
 from sim_check.reads import Leader, Reads
 from sim_check.results import AvMetrics, RunResult, Violation
-from sim_check.scenario import COLLISION_OPTIONS, QUIET_OPTIONS, Scenario, build, sumo_bin
+from sim_check.scenario import Scenario, build, sumo_command
 from sim_check.sensing import LaneClaim, Network, decides_on, sense
 
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
@@ -327,20 +327,7 @@ class ClosedLoop:
 
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
-    return [
-        sumo_bin("sumo"),
-        "-n",
-        str(net),
-        "-r",
-        str(routes),
-        "--seed",
-        str(seed),
-        "--step-length",
-        str(scenario.traffic.step_s),
-        *COLLISION_OPTIONS,
-        *QUIET_OPTIONS,
-        *options,
-    ]
+    return sumo_command(net, routes, "--seed", str(seed), "--step-length", str(scenario.traffic.step_s), *options)
 
 
 def run_once(

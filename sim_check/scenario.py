@@ -232,6 +232,11 @@ COLLISION_OPTIONS = (
 QUIET_OPTIONS = ("--no-step-log", "true", "--duration-log.disable", "true", "--no-warnings", "true")
 
 
+def sumo_command(net: Path, routes: Path, *options: str) -> list[str]:
+    """SUMO on a network and its routes, with the options every run shares and then `options`."""
+    return [sumo_bin("sumo"), "-n", str(net), "-r", str(routes), *COLLISION_OPTIONS, *QUIET_OPTIONS, *options]
+
+
 def sumo_bin(tool: str) -> str:
     import sumo
 
