@@ -24,9 +24,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 from bench_check import GREEN, crossing_expanded, crossing_timed  # noqa: E402
 from mlca_verify.codegen import generate  # noqa: E402
 from mlca_verify.conform.checks import wp_file  # noqa: E402
+from mlca_verify.conform.data import WP_FLAGS  # noqa: E402
 from mlca_verify.spec import load_spec  # noqa: E402
-
-DATA_FLAGS = ("-warn-special-float", "none", "-wp-prop=-binary64")
 
 
 def chain(n: int) -> str:
@@ -88,7 +87,7 @@ def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -
         (out / rel).write_text(body, encoding="utf-8")
     c_file = next(out.rglob("*_fsm.c"))
     module = c_file.name.removesuffix("_fsm.c")
-    extra = (*DATA_FLAGS, "-wp-skip-fct", f"{module}_monitor") if m.has_data else ()
+    extra = (*WP_FLAGS, "-wp-skip-fct", f"{module}_monitor") if m.has_data else ()
     build = work / f"{name}_build"
     build.mkdir()
     start = time.monotonic()

@@ -243,11 +243,16 @@ def rear_speed(v0: float, t: float, p: dict[str, float]) -> float:
     return max(0.0, v0 + p["ACCEL_MAX"] * p["RHO"] - p["BRAKE_MIN"] * (t - p["RHO"]))
 
 
+def fastest(point: Point) -> float:
+    """The highest speed any vehicle reaches in the worst case (one behind, at the end of its response time)."""
+    p = point.params
+    return max(point.v, point.v_lead, point.v_follow) + p["ACCEL_MAX"] * p["RHO"]
+
+
 def horizon(point: Point) -> float:
     """Simulated seconds until every vehicle of the worst case stands, and a margin."""
     p = point.params
-    fastest = max(point.v, point.v_lead, point.v_follow) + p["ACCEL_MAX"] * p["RHO"]
-    return p["RHO"] + fastest / p["BRAKE_MIN"] + 2.0
+    return p["RHO"] + fastest(point) / p["BRAKE_MIN"] + 2.0
 
 
 # ---- SUMO ---------------------------------------------------------------------------------------------------------
@@ -255,9 +260,7 @@ def horizon(point: Point) -> float:
 
 def _network(point: Point, work: Path) -> tuple[Path, float]:
     """A straight two-lane road long enough for the whole worst case; returns the net and the follower's start."""
-    p = point.params
-    fastest = max(point.v, point.v_lead, point.v_follow) + p["ACCEL_MAX"] * p["RHO"]
-    reach = fastest * horizon(point)
+    reach = fastest(point) * horizon(point)
     length = 100.0 + point.gap_follow + point.gap_lead + 3 * LENGTH_M + reach + 100.0
     (work / "road.nod.xml").write_text(
         f'<nodes>\n  <node id="a" x="0" y="0"/>\n  <node id="b" x="{length:.1f}" y="0"/>\n</nodes>\n'

@@ -410,9 +410,10 @@ def cross_build(t: DataTarget) -> CheckOutcome:
     return CheckOutcome("cortex-m4", True, detail, data={"text": text, "data": data, "bss": bss, "stack": frames})
 
 
-# z3's time per goal of the step: 4 s on a quiet machine for MLCA-T, twice that when two WP runs share 2 cores.
-# A goal that needs longer is reported unproved, as before; the time of a passing check does not change.
-TIMEOUT = ("-wp-timeout", "30")
+# WP's flags for a machine with data, beside conform.checks.WP. The timeout per goal: z3 takes 4 s for a step
+# goal of MLCA-T on a quiet machine, twice that when two WP runs share 2 cores; a goal that needs longer is
+# reported unproved, as before, and the time of a passing check does not change.
+WP_FLAGS = ("-wp-timeout", "30", "-warn-special-float", "none", "-wp-prop=-binary64")
 
 
 def frama_c(t: DataTarget) -> CheckOutcome:
@@ -424,7 +425,7 @@ def frama_c(t: DataTarget) -> CheckOutcome:
     symbol, which has no body (see `codegen.data_ir.binary64`): they are listed, not sent to the prover. Then
     the spec's proved invariants, each with its certificate, on a wrapper of the step (`certified`)."""
     monitor = f"{t.ir.module}_monitor"
-    flags = (*TIMEOUT, "-warn-special-float", "none", "-wp-skip-fct", monitor, "-wp-prop=-binary64")
+    flags = (*WP_FLAGS, "-wp-skip-fct", monitor)
     outcome = wp_file(t.layout.c_source, t.build, flags)
     left = binary64_goals(t.ir)
     note = (
@@ -470,7 +471,7 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
     )
     source.write_text(text, encoding="utf-8")
     fcts = f"{t.ir.module}_step_certified,{t.ir.module}_init_certified"
-    ran = wp_file(source, t.build, (*TIMEOUT, "-warn-special-float", "none", "-wp-fct", fcts, "-wp-prop=-binary64"))
+    ran = wp_file(source, t.build, (*WP_FLAGS, "-wp-fct", fcts))
     data = {**(ran.data or {}), "stated": [x.id for x in stated], "left": [f"{i}: {why}" for i, why in left]}
     unproved = [r.prop for r in results if r.kind == "invariant" and r.prop not in data["stated"]]
     detail = (

@@ -33,6 +33,7 @@ from mlca_verify.errors import ToolError
 from mlca_verify.evidence import physics
 from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
+from mlca_verify.logic.lemmas import named
 from mlca_verify.logic.results import Outcome, Result
 from mlca_verify.model import BinOp, Machine, Range, StateIn, Type, show, show_number
 from mlca_verify.report import cube_text
@@ -656,7 +657,7 @@ def _rule_invariants(ev: Evidence) -> list[Solution]:
         e = inv.expr
         if not (isinstance(e, BinOp) and e.op == "->" and isinstance(e.left, StateIn)):
             continue
-        tied = sorted(physics.named(e.right) & rules)
+        tied = sorted(named(e.right) & rules)
         if inv.expect == "holds" and tied:
             r = results[inv.id]
             text = f"invariant {inv.id} ({show(e)}): {r.verdict}; it ties the states to {', '.join(tied)}"

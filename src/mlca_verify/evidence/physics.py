@@ -20,10 +20,10 @@ from typing import Any
 import z3
 
 from mlca_verify.evidence import adrss
-from mlca_verify.logic.lemmas import lemma_scripts, reads
+from mlca_verify.logic.lemmas import lemma_scripts, named, reads
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, python_value, value_of
-from mlca_verify.model import BinOp, Definition, Expr, Machine, Range, Var, nodes, show
+from mlca_verify.model import BinOp, Definition, Expr, Machine, Range, Var, show
 from mlca_verify.spec.names import c_form
 from mlca_verify.spec.types import show_unit
 
@@ -52,10 +52,8 @@ def rss_definitions(m: Machine) -> list[Definition]:
     speeds = {s.name for s in m.signals if show_unit(s.unit) == "m/s"}
     found = []
     for d in m.definitions:
-        read = reads(m, d.expr)
-        signals = read & {s.name for s in m.signals}
-        rss_like = d.name.startswith("rss_") and show_unit(d.unit) == "m" and set(RSS_PARAMS) <= read
-        if rss_like and len(signals) == 2 and signals <= speeds:
+        rss_like = d.name.startswith("rss_") and show_unit(d.unit) == "m" and set(RSS_PARAMS) <= reads(m, d.expr)
+        if rss_like and len(d.signals) == 2 and set(d.signals) <= speeds:
             found.append(d)
     return found
 
@@ -88,7 +86,7 @@ def _value(m: Machine, system: System, d: Definition, params: tuple[float, ...],
 def agreement(m: Machine, d: Definition) -> Agreement:
     """The definition against ad-rss-lib, in the order of its two speed signals that agrees best."""
     system = System(m, (), (), frozenset(), False)
-    pair = tuple(sorted(reads(m, d.expr) & {s.name for s in m.signals}))
+    pair = d.signals  # the two speed signals it reads (rss_definitions)
     assert len(pair) == 2
     grid = _grid(m, (pair[0], pair[1]))
     best: Agreement | None = None
@@ -224,11 +222,6 @@ def premise_definitions(m: Machine, expr: Expr) -> set[str]:
     if isinstance(expr, BinOp) and expr.op == "->":
         return named(expr.left) & {d.name for d in m.definitions}
     return set()
-
-
-def named(expr: Expr) -> set[str]:
-    """The names an expression reads itself (not through definitions)."""
-    return {x.name for x in nodes(expr) if isinstance(x, Var)}
 
 
 def section(

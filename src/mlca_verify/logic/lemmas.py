@@ -70,14 +70,19 @@ def reads(machine: Machine, expr: Expr) -> set[str]:
     """Every name an expression reads, directly or through the definitions it reads (theirs included)."""
     by_name = {d.name: d for d in machine.definitions}
     seen: set[str] = set()
-    todo = [x.name for x in nodes(expr) if isinstance(x, Var)]
+    todo = list(named(expr))
     while todo:
         name = todo.pop()
         if name not in seen:
             seen.add(name)
             if name in by_name:
-                todo += [x.name for x in nodes(by_name[name].expr) if isinstance(x, Var)]
+                todo += named(by_name[name].expr)
     return seen
+
+
+def named(expr: Expr) -> set[str]:
+    """The names an expression reads itself (not through definitions)."""
+    return {x.name for x in nodes(expr) if isinstance(x, Var)}
 
 
 def decide(machine: Machine, lemma: Lemma, parametric: bool, timeout_ms: int) -> Decision:
