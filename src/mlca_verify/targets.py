@@ -19,16 +19,20 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from mlca_verify.errors import ToolError
 from mlca_verify.tools import build_shared
 
 if TYPE_CHECKING:  # codegen renders with this module's layout: imported where used, not at import time
+    from mlca_verify.codegen.data_ir import DataIR
     from mlca_verify.codegen.ir import MachineIR
 
 HOLDS = 0x10000  # the bit of an `advance` answer that says every invariant holds in the state reached
 STATE_BITS = 0xFFFF  # the bits of an `advance` answer that are the state reached
+FIRED_SHIFT = 20  # a machine with data: its answer holds the number of the transition that fired, plus one, here
+FIRED_MASK = 0xFFF  # ... in these bits (after the shift)
+DEFS_SHIFT = 32  # ... and from here, one bit per boolean definition (`flag_definitions`), as the step saw it
 FILES = {"python": "python/{module}_fsm.py", "c-header": "c/{module}_fsm.h", "c-source": "c/{module}_fsm.c"}
 GENERATED_GLOB = "*/*_fsm.*"  # every file any machine's layout holds
 
@@ -110,6 +114,59 @@ class CMachine:
         return bool(self.extension.holds(state, *values))
 
 
+def flag_definitions(ir: DataIR) -> tuple[str, ...]:
+    """The boolean definitions the generated code computes (L, R, W of MLCA-T), in the spec's order: an `advance`
+    answer holds their values, as the step saw them, from DEFS_SHIFT on."""
+    flags = tuple(d.name for d in ir.definitions if d.ctype == "bool" and d.name in ir.used)
+    if len(flags) > 31 or len(ir.transitions) + 1 > FIRED_MASK:
+        raise ToolError(
+            f"error: {ir.module} has {len(flags)} boolean definitions and {len(ir.transitions)} transitions; the "
+            f"closed loop's one-call answer holds at most 31 and {FIRED_MASK - 1}"
+        )
+    return flags
+
+
+class DataPythonMachine:
+    """The generated Python of a machine with data, behind the same two calls as its C extension module: `context()`
+    is a new context, and `advance(context, *values)` one step and the monitor, in place, answered as
+    (packed, *outputs): the mode reached, HOLDS where every invariant holds after the step, the number of the
+    transition that fired plus one, shifted left by FIRED_SHIFT (0 where the mode was not a state), and the values
+    of `flags` (the boolean definitions) in the context before the step, from DEFS_SHIFT on. Values are the inputs'
+    and then the signals', in declared order; the params are the spec's defaults. `failing` names the invariants
+    that failed in the last step."""
+
+    def __init__(self, module: ModuleType, flags: Sequence[str]) -> None:
+        self.module = module
+        self.flags = tuple(getattr(module, f"_def_{name}") for name in flags)
+        self.failing: list[str] = []
+
+    def context(self) -> Any:
+        return self.module.Context()
+
+    def advance(self, ctx: Any, *values: Any) -> tuple[Any, ...]:
+        m = self.module
+        inputs, params = m.Inputs(*values), m.DEFAULT_PARAMS
+        before = m.Context(**vars(ctx))
+        fired = m._fired(before, inputs, params)
+        out = m.step(ctx, inputs, params)
+        self.failing = m.monitor(before, ctx, inputs, params, out)
+        packed = int(ctx.mode) | (fired + 1) << FIRED_SHIFT | (0 if self.failing else HOLDS)
+        for k, flag in enumerate(self.flags):
+            if flag(before, inputs, params):
+                packed |= 1 << (DEFS_SHIFT + k)
+        return (packed, *vars(out).values())
+
+
+class DataCMachine:
+    """The generated C of a machine with data, built with a small adapter into an extension module: the same
+    calls as DataPythonMachine (the context is a bytearray); its monitor says only that an invariant failed."""
+
+    def __init__(self, extension: ModuleType) -> None:
+        self.context = extension.context
+        self.advance = extension.advance
+        self.failing = ["invariants"]
+
+
 def load_python(layout: Layout, inputs: Sequence[str], name: str) -> PythonMachine:
     """Import the generated Python of `layout` as the module `name`."""
     return PythonMachine(import_generated(layout.python, name), inputs)
@@ -152,6 +209,30 @@ def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
     if ran.returncode != 0:
         raise ToolError(f"error: cannot build the generated C of {layout.module}: {_first_error(ran.output)}")
     return CMachine(import_extension(library, name))
+
+
+def build_data_c(layout: Layout, ir: DataIR, build: Path, name: str) -> DataCMachine:
+    """Build the generated C of the machine with data of `layout` with its adapter into `build` and import it as
+    the module `name`; the adapter includes the generated source, which is compiled once, with it."""
+    from mlca_verify.codegen.render import render_template
+
+    given = {
+        "m": ir,
+        "extension": name,
+        "holds": hex(HOLDS),
+        "fired_shift": FIRED_SHIFT,
+        "defs_shift": DEFS_SHIFT,
+        "flags": flag_definitions(ir),
+    }
+    python_side, machine_side = build / f"{name}.c", build / f"{ir.module}_ext_bits.c"
+    python_side.write_text(render_template("data_extension.c.j2", **given), encoding="utf-8")
+    machine_side.write_text(render_template("data_extension_bits.c.j2", **given), encoding="utf-8")
+    library = build / f"{name}.so"
+    include = ("-ffp-contract=off", "-I", str(layout.c_source.parent), "-I", str(python_headers()), str(python_side))
+    ran = build_shared(machine_side, library, include)
+    if ran.returncode != 0:
+        raise ToolError(f"error: cannot build the generated C of {layout.module}: {_first_error(ran.output)}")
+    return DataCMachine(import_extension(library, name))
 
 
 def _first_error(output: str) -> str:
