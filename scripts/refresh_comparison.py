@@ -3,7 +3,9 @@
 as CSV (sorted, so the same runs give the same files), from which tests/test_docs.py rebuilds the database and
 checks that the committed report is what `mlca-sim report` makes of it.
 
-Usage: .venv/bin/python scripts/refresh_comparison.py matrix.sqlite
+Usage: .venv/bin/python scripts/refresh_comparison.py matrix.sqlite [DIR]
+DIR is docs/comparison by default; docs/comparison/middle holds the comparison under the paper's middle-lane goal
+(a scenario with `need = "middle"`).
 """
 
 from __future__ import annotations
@@ -12,16 +14,15 @@ import csv
 import sys
 from pathlib import Path
 
-from sim_check.db import ResultsDB
+from sim_check.db import EXPORTED, ResultsDB
 from sim_check.report import write_report
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "comparison"
-TABLES = ("runs", "av_metrics", "violations")
 
 
 def export(db: Path, out: Path) -> None:
     with ResultsDB.open_for_reading(db) as results:
-        for table in TABLES:
+        for table in EXPORTED:
             rows = results.table_rows(table)
             with (out / f"{table}.csv").open("w", newline="", encoding="utf-8") as f:
                 writer = csv.writer(f, lineterminator="\n")
@@ -31,14 +32,15 @@ def export(db: Path, out: Path) -> None:
 
 def main() -> None:
     db = Path(sys.argv[1])
-    DOCS.mkdir(parents=True, exist_ok=True)
-    for old in DOCS.glob("*.svg"):
+    docs = Path(sys.argv[2]).resolve() if len(sys.argv) > 2 else DOCS
+    docs.mkdir(parents=True, exist_ok=True)
+    for old in docs.glob("*.svg"):
         old.unlink()
-    for path in write_report(db, DOCS):
+    for path in write_report(db, docs):
         if path.suffix == ".png":  # the SVGs are the committed figures; the PNGs stay out of the repository
             path.unlink()
-    export(db, DOCS)
-    print(f"refreshed {DOCS}")
+    export(db, docs)
+    print(f"refreshed {docs}")
 
 
 if __name__ == "__main__":

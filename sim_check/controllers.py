@@ -8,17 +8,32 @@ SUMO ships the lane-change models LC2013, SL2015 and DK2008, and nothing named L
 from __future__ import annotations
 
 import functools
+import itertools
 import operator
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
-from mlca_verify.codegen import machine_ir
+from mlca_verify.codegen import data_ir, machine_ir
 from mlca_verify.errors import UsageError
+from mlca_verify.model import Machine, evaluate
 from mlca_verify.spec import load_spec
-from mlca_verify.targets import HOLDS, STATE_BITS, Layout, PythonMachine, build_c, load_python
+from mlca_verify.targets import (
+    HOLDS,
+    STATE_BITS,
+    DataCMachine,
+    DataPythonMachine,
+    Layout,
+    PythonMachine,
+    build_c,
+    build_data_c,
+    flag_definitions,
+    import_generated,
+    load_python,
+)
+from sim_check.signals import SENSED
 
 ROOT = Path(__file__).resolve().parent.parent
 Kind = Literal["fsm", "sumo", "mobil", "without"]
@@ -51,6 +66,18 @@ SETUPS = {
         Setup("mlca-c", "fsm", "MLCA", "MLCA, Alg. 1: the generated C code"),
         Setup("mlca_r-py", "fsm", "MLCA-R (Python)", "the repaired machine (docs/findings.md F1), generated Python"),
         Setup("mlca_r-c", "fsm", "MLCA-R", "the repaired machine (docs/findings.md F1), generated C"),
+        Setup(
+            "mlca_t-py",
+            "fsm",
+            "MLCA-T (Python)",
+            "MLCA-T: the whole decision function of spec/mlca_t.toml (waiting timer, RSS gap rule), generated Python",
+        ),
+        Setup(
+            "mlca_t-c",
+            "fsm",
+            "MLCA-T",
+            "MLCA-T: the whole decision function of spec/mlca_t.toml (waiting timer, RSS gap rule), generated C",
+        ),
         Setup(
             "lc2013",
             "sumo",
@@ -101,7 +128,7 @@ SETUPS = {
 }
 CONTROLLERS = tuple(SETUPS)
 # The paper's comparison (Sec. IV): every model once, MLCA as generated C, and the repair.
-PAPER_MATRIX = ("lc2013", "sl2015", "continuous", "idm-lc", "mobil", "without", "mlca-c", "mlca_r-c")
+PAPER_MATRIX = ("lc2013", "sl2015", "continuous", "idm-lc", "mobil", "without", "mlca-c", "mlca_r-c", "mlca_t-c")
 
 
 def setup_of(name: str) -> Setup:
@@ -123,13 +150,17 @@ class Controller:
     """A generated machine behind one interface: states are the generated enum's integers. `packed` is one step of
     the machine and its runtime monitor, called as packed(state, *values) with the inputs' values in the order of
     `inputs`: the state reached, with HOLDS set where every invariant holds there (bound at load to the C adapter
-    or to the Python machine, so that a step costs the loop one call)."""
+    or to the Python machine, so that a step costs the loop one call). `transitions` names the spec's transitions
+    by number from 1, and `fired` says which one fires from a state with the inputs' values (absent: none), by the
+    spec's own semantics (mlca_verify.model), not the generated code's."""
 
     name: str
     states: tuple[str, ...]
     inputs: tuple[str, ...]
     initial: int
     packed: Callable[..., int]
+    transitions: tuple[str, ...] = ()
+    fired: dict[tuple[int, tuple[bool, ...]], int] = field(default_factory=dict)
     py: PythonMachine | None = None
 
     def __post_init__(self) -> None:
@@ -146,19 +177,85 @@ class Controller:
         return self.py.failing(state, self.values(inputs)) if self.py else ["invariants"]
 
 
+@dataclass
+class DataController:
+    """A generated machine with data (its whole decision function) behind one interface: `context()` is a new
+    context, `advance(context, *values)` one step and its monitor, answered as (packed, *outputs) (see
+    mlca_verify.targets.DataPythonMachine); values are the boolean inputs `inputs`, then the signals `signals`.
+    `transitions` names the transitions by number from 1, `flags` the boolean definitions whose values the answer
+    holds, and `command_at` the place of the output `command` (+1 left, -1 right, 0 none) among the outputs."""
+
+    name: str
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    signals: tuple[str, ...]
+    transitions: tuple[str, ...]
+    flags: tuple[str, ...]
+    command_at: int
+    machine: DataPythonMachine | DataCMachine
+
+    def __post_init__(self) -> None:
+        self.context: Callable[[], Any] = self.machine.context
+        self.advance: Callable[..., tuple[Any, ...]] = self.machine.advance
+
+    def failing(self) -> list[str]:
+        """The invariants that failed in the last step: by id from the Python machine; the C says only that one
+        did."""
+        return list(self.machine.failing)
+
+
 @functools.cache
-def load_controller(name: str, generated: Path = ROOT / "generated") -> Controller:
+def load_controller(name: str, generated: Path = ROOT / "generated") -> Controller | DataController:
     """The generated machine of an `fsm` controller, loaded (and for C, compiled) once per process."""
     if setup_of(name).kind != "fsm":
         raise UsageError(f"error: controller '{name}' is not a generated machine")
     machine, lang = name.rsplit("-", 1)
     spec = load_spec(ROOT / "spec" / f"{machine}.toml", compare=False)
+    if spec.machine.has_data:
+        return _load_data(name, spec, lang, generated)
     ir = machine_ir(spec, generated)
     layout = Layout(generated, ir.module)
     initial, names = ir.states.index(ir.initial), tuple(i.name for i in ir.inputs)
     if lang == "py":
         py = load_python(layout, names, f"_sim_{ir.module}_fsm")
-        return Controller(name, ir.states, names, initial, py.advance, py=py)
+        return Controller(name, ir.states, names, initial, py.advance, *_fired_table(spec.machine, ir.states), py=py)
     with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
         c = build_c(layout, ir, Path(build), f"_{ir.module}_sim")
-    return Controller(name, ir.states, names, initial, c.advance)
+    return Controller(name, ir.states, names, initial, c.advance, *_fired_table(spec.machine, ir.states))
+
+
+def _fired_table(
+    machine: Machine, states: tuple[str, ...]
+) -> tuple[tuple[str, ...], dict[tuple[int, tuple[bool, ...]], int]]:
+    """The transitions of a boolean machine with first-match semantics, and the one that fires (by number from 1)
+    from each state under each valuation of the inputs."""
+    names, table = machine.input_names, {}
+    for k, state in enumerate(states):
+        for values in itertools.product((False, True), repeat=len(names)):
+            given = dict(zip(names, values, strict=True))
+            for number, t in enumerate(machine.transitions, 1):
+                if t.applies_to(state) and evaluate(t.guard, given, state):
+                    table[(k, values)] = number
+                    break
+    return tuple(t.id for t in machine.transitions), table
+
+
+def _load_data(name: str, spec: Any, lang: str, generated: Path) -> DataController:
+    ir = data_ir(spec, generated)
+    signals, inputs = tuple(s.name for s in ir.signals), tuple(i.name for i in ir.inputs)
+    outputs = tuple(o.name for o in ir.outputs)
+    if signals != SENSED or inputs != ("N", "U") or "command" not in outputs:
+        raise UsageError(
+            f"error: controller '{name}': the closed loop drives a machine whose inputs are N, U, whose signals are "
+            f"{', '.join(SENSED)}, in that order, and which has an output 'command'"
+        )
+    layout, flags = Layout(generated, ir.module), flag_definitions(ir)
+    if lang == "py":
+        machine: DataPythonMachine | DataCMachine = DataPythonMachine(
+            import_generated(layout.python, f"_sim_{ir.module}_data"), flags
+        )
+    else:
+        with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
+            machine = build_data_c(layout, ir, Path(build), f"_{ir.module}_sim")
+    transitions = tuple(tid for _, tid, _ in ir.transitions)
+    return DataController(name, ir.states, inputs, signals, transitions, flags, outputs.index("command"), machine)

@@ -31,15 +31,17 @@ from typing import Any, TypeVar
 from urllib.parse import quote
 
 from mlca_verify.errors import UsageError
-from sim_check.results import MARKS_KM, MECHANISM, STATES, Job, RunResult
+from sim_check.results import MARKS_KM, MECHANISM, SAFETY, SHADOW, STATES, Job, RunResult
 
 T = TypeVar("T")
 
 APPLICATION_ID = 0x4D4C4353  # "MLCS": this file is a results database of mlca-sim
-SCHEMA_VERSION = 2  # 1: runs, av_metrics, violations (unmarked files); 2: the same and leases
+SCHEMA_VERSION = 3  # 1: runs, av_metrics, violations (unmarked files); 2: the same and leases; 3: the shadow
+# mode, the commands, the lane changes' safety, SSM and the density (columns after those of 2), the transitions
+# fired and the wish episodes
 BUSY_TIMEOUT_S = 30.0  # how long one attempt waits for another writer's lock
 WRITE_ATTEMPTS = 10  # attempts of a write before the database is declared stuck
-AV_COLUMNS = (
+AV_COLUMNS_2 = (
     "av",
     *(f"lc_{km}km" for km in MARKS_KM),
     "collisions",
@@ -53,7 +55,8 @@ AV_COLUMNS = (
     *MECHANISM,
     *(f"{state.lower()}_s" for state in STATES),
 )
-RUN_COLUMNS = (
+AV_COLUMNS = (*AV_COLUMNS_2, *SHADOW, *SAFETY)
+RUN_COLUMNS_2 = (
     "status",
     "reason",
     "sim_steps",
@@ -64,20 +67,32 @@ RUN_COLUMNS = (
     "trajectory_sha256",
     "bg_mean_speed_ms",
 )
+RUN_COLUMNS = (*RUN_COLUMNS_2, "density_veh_km_lane")
+TRANSITION_COLUMNS = ("av", "transition", "fired")
+EPISODE_COLUMNS = ("av", "start_s", "side", "reason", "urgent", "outcome", "delay_s", "state")
 LEASE_COLUMNS = ("host", "pid", "started")
+EXPORTED = ("runs", "av_metrics", "violations", "transitions", "episodes")  # the tables a comparison commits as CSV
 SCHEMA = (
     """CREATE TABLE IF NOT EXISTS runs (
     controller TEXT NOT NULL, avs INTEGER NOT NULL, seed INTEGER NOT NULL,
     status TEXT NOT NULL, reason TEXT NOT NULL, sim_steps INTEGER, wall_s REAL, vehicle_steps INTEGER,
     collisions INTEGER, monitor_violations INTEGER, trajectory_sha256 TEXT, bg_mean_speed_ms REAL,
-    PRIMARY KEY (controller, avs, seed))""",
+    density_veh_km_lane REAL, PRIMARY KEY (controller, avs, seed))""",
     f"""CREATE TABLE IF NOT EXISTS av_metrics (
     controller TEXT NOT NULL, avs INTEGER NOT NULL, seed INTEGER NOT NULL, av TEXT NOT NULL,
     {", ".join(f"lc_{km}km INTEGER" for km in MARKS_KM)}, collisions INTEGER, emergency_brakes INTEGER,
     min_time_gap_s REAL, travel_time_s REAL, mean_speed_ms REAL, arrived INTEGER, monitor_violations INTEGER,
     mingap_contacts INTEGER, {", ".join(f"{k} REAL" for k in MECHANISM)},
     {", ".join(f"{state.lower()}_s REAL" for state in STATES)},
+    {", ".join(f"{k} REAL" for k in (*SHADOW, *SAFETY))},
     PRIMARY KEY (controller, avs, seed, av))""",
+    """CREATE TABLE IF NOT EXISTS transitions (
+    controller TEXT NOT NULL, avs INTEGER NOT NULL, seed INTEGER NOT NULL, av TEXT NOT NULL,
+    transition TEXT NOT NULL, fired INTEGER NOT NULL, PRIMARY KEY (controller, avs, seed, av, transition))""",
+    """CREATE TABLE IF NOT EXISTS episodes (
+    controller TEXT NOT NULL, avs INTEGER NOT NULL, seed INTEGER NOT NULL, av TEXT NOT NULL,
+    start_s REAL NOT NULL, side INTEGER NOT NULL, reason TEXT NOT NULL, urgent INTEGER NOT NULL,
+    outcome TEXT NOT NULL, delay_s REAL NOT NULL, state TEXT NOT NULL)""",
     """CREATE TABLE IF NOT EXISTS violations (
     controller TEXT NOT NULL, avs INTEGER NOT NULL, seed INTEGER NOT NULL, av TEXT NOT NULL,
     time_s REAL, invariants TEXT, trace_json TEXT)""",
@@ -90,6 +105,13 @@ COLUMNS = {
     "runs": ("controller", "avs", "seed", *RUN_COLUMNS),
     "av_metrics": ("controller", "avs", "seed", *AV_COLUMNS),
     "leases": ("controller", "avs", "seed", *LEASE_COLUMNS),
+    "transitions": ("controller", "avs", "seed", *TRANSITION_COLUMNS),
+    "episodes": ("controller", "avs", "seed", *EPISODE_COLUMNS),
+}
+# what a database of schema 2 (or 1) has, which the report still reads
+COLUMNS_2 = {
+    "runs": ("controller", "avs", "seed", *RUN_COLUMNS_2),
+    "av_metrics": ("controller", "avs", "seed", *AV_COLUMNS_2),
 }
 BUSY_CODES = (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED)
 
@@ -233,7 +255,7 @@ def _check(conn: sqlite3.Connection, path: Path, app: int, version: int, tables:
         raise UsageError(
             f"{path}: error: not a results database of mlca-sim (its tables: {names}); give a new file to --db"
         )
-    _columns(conn, path, tables & {"runs", "av_metrics"})
+    _columns(conn, path, tables & {"runs", "av_metrics"}, COLUMNS_2)
     version = version if app else 1
     schemas = f"results schema {version}, this one writes {SCHEMA_VERSION}"
     if version < SCHEMA_VERSION:
@@ -248,11 +270,16 @@ def _check(conn: sqlite3.Connection, path: Path, app: int, version: int, tables:
     _columns(conn, path, set(COLUMNS))
 
 
-def _columns(conn: sqlite3.Connection, path: Path, tables: Iterable[str]) -> None:
+def _columns(
+    conn: sqlite3.Connection, path: Path, tables: Iterable[str], wanted: dict[str, tuple[str, ...]] = COLUMNS
+) -> None:
+    """Refuse a table whose columns are not `wanted`'s, or (`wanted` being COLUMNS_2, what every version has)
+    do not begin with them."""
     for table in sorted(tables):
         have = [r[1] for r in conn.execute(f"PRAGMA table_info({table})")]
-        if have != list(COLUMNS[table]):
-            missing = sorted(set(COLUMNS[table]) - set(have))
+        expected = list(wanted[table])
+        if have != expected and (wanted is COLUMNS or have[: len(expected)] != expected):
+            missing = sorted(set(expected) - set(have))
             raise UsageError(
                 f"{path}: error: table {table} has other columns than this version writes "
                 f"(missing: {', '.join(missing) or 'none'}); use a new database file"
@@ -290,6 +317,7 @@ def _insert(conn: sqlite3.Connection, r: RunResult) -> bool:
             r.monitor_violations,
             r.trajectory_sha256,
             r.bg_mean_speed_ms,
+            r.density_veh_km_lane,
         ),
     ).rowcount
     if not added:
@@ -305,6 +333,18 @@ def _insert(conn: sqlite3.Connection, r: RunResult) -> bool:
             "INSERT INTO violations VALUES (?, ?, ?, ?, ?, ?, ?)",
             (*key, v.av, v.time_s, ",".join(v.invariants), json.dumps(v.trace)),
         )
+    conn.executemany(
+        "INSERT INTO transitions VALUES (?, ?, ?, ?, ?, ?)",
+        [(*key, m.av, tid, n) for m in r.metrics for tid, n in sorted(m.transitions.items())],
+    )
+    conn.executemany(
+        f"INSERT INTO episodes VALUES (?, ?, ?, {', '.join('?' for _ in EPISODE_COLUMNS)})",
+        [
+            (*key, m.av, e.start_s, e.side, e.reason, int(e.urgent), e.outcome, e.delay_s, e.state)
+            for m in r.metrics
+            for e in m.episodes
+        ],
+    )
     return True
 
 
@@ -364,7 +404,7 @@ def _refuse_overlap(conn: sqlite3.Connection, plan: Plan) -> None:
 
 
 def _delete_run(conn: sqlite3.Connection, job: Job) -> None:
-    for table in ("runs", "av_metrics", "violations"):
+    for table in ("runs", "av_metrics", "violations", "transitions", "episodes"):
         conn.execute(f"DELETE FROM {table} WHERE controller = ? AND avs = ? AND seed = ?", job)
 
 
@@ -447,11 +487,79 @@ class MechanismTotals:
 
 @dataclass(frozen=True)
 class ReportRows:
-    """What `mlca-sim report` reads, from one snapshot of the database, each list in (controller, AVs) order."""
+    """What `mlca-sim report` reads, from one snapshot of the database, each list in (controller, AVs) order, and
+    the closed loop's own figures."""
 
     statuses: list[RunStatus]
     finished: list[RunTotals]
     mechanism: list[MechanismTotals]
+    loop: LoopRows
+
+
+# --- the closed loop's own figures (schema 3; a database of schema 2 has none) ------------------------------
+
+DONE = "JOIN runs r USING (controller, avs, seed) WHERE r.status = 'done'"
+LOOP_QUERIES = {
+    "transitions": (
+        "SELECT t.controller, t.transition, SUM(t.fired),"
+        " COUNT(DISTINCT CASE WHEN t.fired > 0 THEN t.seed || '/' || t.avs END) FROM transitions t"
+        f" {DONE} GROUP BY t.controller, t.transition ORDER BY t.controller, MIN(t.rowid)"
+    ),
+    "shadow": (
+        f"SELECT m.controller, m.avs, COUNT(*), {', '.join(f'SUM(m.{k})' for k in SHADOW)} FROM av_metrics m {DONE}"
+        " AND m.wishes IS NOT NULL GROUP BY m.controller, m.avs ORDER BY m.controller, m.avs"
+    ),
+    "safety": (
+        f"SELECT m.controller, m.avs, SUM(m.lc_{MARKS_KM[-1]}km), SUM(m.lc_rss_unsafe), MIN(m.lc_min_gap_lead_m),"
+        " MIN(m.lc_min_gap_follow_m), SUM(m.ssm_conflicts), MIN(m.ssm_min_ttc_s), MAX(m.ssm_max_drac),"
+        f" MIN(m.ssm_min_pet_s), AVG(r.density_veh_km_lane) FROM av_metrics m {DONE}"
+        " AND m.lc_rss_unsafe IS NOT NULL GROUP BY m.controller, m.avs ORDER BY m.controller, m.avs"
+    ),
+    "states": (
+        f"SELECT m.controller, {', '.join(f'SUM(m.{state.lower()}_s)' for state in STATES)} FROM av_metrics m {DONE}"
+        " AND m.wishes IS NOT NULL GROUP BY m.controller ORDER BY m.controller"
+    ),
+    "wishes": (
+        f"SELECT e.controller, e.side, e.urgent, e.reason, COUNT(*) FROM episodes e {DONE}"
+        " GROUP BY e.controller, e.side, e.urgent, e.reason ORDER BY e.controller, e.side, e.urgent, e.reason"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class LoopRows:
+    """What the report shows of the closed loop beyond the paper's metrics, one list of plain rows per query of
+    LOOP_QUERIES (empty for a database of schema 2): per controller each transition, the times it fired and the
+    runs it fired in; per (controller, AVs) the AV runs and the shadow mode's sums (SHADOW); per (controller, AVs)
+    the lane changes, those into a gap shorter than RSS's, the smallest gaps at a change, SSM's conflicts and
+    extremes, the mean density; per controller the seconds its AVs spent in each state of STATES, and the wish
+    episodes by side, urgency and reason."""
+
+    transitions: list[tuple[Any, ...]] = field(default_factory=list)
+    shadow: list[tuple[Any, ...]] = field(default_factory=list)
+    safety: list[tuple[Any, ...]] = field(default_factory=list)
+    states: list[tuple[Any, ...]] = field(default_factory=list)
+    wishes: list[tuple[Any, ...]] = field(default_factory=list)
+
+
+def _transition_counts(conn: sqlite3.Connection, controllers: Sequence[str]) -> dict[str, int]:
+    if "transitions" not in _tables(conn):
+        return {}
+    marks = ", ".join("?" for _ in controllers)
+    query = (
+        f"SELECT t.transition, SUM(t.fired) FROM transitions t {DONE} AND t.controller IN ({marks})"
+        " GROUP BY t.transition ORDER BY t.transition"
+    )
+    return {tid: int(n) for tid, n in conn.execute(query, tuple(controllers))}
+
+
+def _loop_rows(conn: sqlite3.Connection) -> LoopRows:
+    if not {"transitions", "episodes"} <= _tables(conn):
+        return LoopRows()
+    have = {r[1] for r in conn.execute("PRAGMA table_info(av_metrics)")}
+    if not set(SHADOW) | set(SAFETY) <= have:
+        return LoopRows()
+    return LoopRows(**{name: conn.execute(query).fetchall() for name, query in LOOP_QUERIES.items()})
 
 
 @dataclass(frozen=True)
@@ -472,11 +580,11 @@ class TableRows:
 
 
 def _report_rows(conn: sqlite3.Connection, path: Path) -> ReportRows:
-    _columns(conn, path, _tables(conn) & {"runs", "av_metrics"})
+    _columns(conn, path, _tables(conn) & {"runs", "av_metrics"}, COLUMNS_2)
     statuses = [RunStatus(*row) for row in conn.execute(REPORT_STATUSES)]
     finished = [_run_totals(row) for row in conn.execute(REPORT_FINISHED)]
     mechanism = [_mechanism_totals(row) for row in conn.execute(REPORT_MECHANISM)]
-    return ReportRows(statuses, finished, mechanism)
+    return ReportRows(statuses, finished, mechanism, _loop_rows(conn))
 
 
 def _run_totals(row: tuple[Any, ...]) -> RunTotals:
@@ -505,13 +613,14 @@ def _monitor_summary(conn: sqlite3.Connection, path: Path, controllers: Sequence
 
 
 def _table_name(table: str) -> str:
-    if table not in COLUMNS and table not in ("violations", "leases"):
+    if table not in COLUMNS and table != "violations":
         raise ValueError(f"no table {table!r} in a results database")
     return table
 
 
 def _table_rows(conn: sqlite3.Connection, table: str) -> TableRows:
-    cursor = conn.execute(f"SELECT * FROM {_table_name(table)} ORDER BY 1, 2, 3, 4")
+    width = len(conn.execute(f"PRAGMA table_info({_table_name(table)})").fetchall())
+    cursor = conn.execute(f"SELECT * FROM {_table_name(table)} ORDER BY {', '.join(map(str, range(1, width + 1)))}")
     return TableRows(tuple(d[0] for d in cursor.description), cursor.fetchall())
 
 
@@ -597,6 +706,11 @@ class ResultsDB:
             self._conn, lambda c: _monitor_summary(c, self.path, controllers), "read the results database", "BEGIN"
         )
 
+    def transition_counts(self, controllers: Sequence[str]) -> dict[str, int]:
+        """How often each transition fired in the finished runs of `controllers` (empty for a database of schema
+        2, which does not record it)."""
+        return _retrying(self._conn, lambda c: _transition_counts(c, controllers), "read the results database", "BEGIN")
+
     def column_types(self, table: str) -> dict[str, str]:
         """The declared SQLite type of each column of `table` (to read its exported rows back)."""
         rows = self._conn.execute(f"PRAGMA table_info({_table_name(table)})").fetchall()
@@ -613,5 +727,6 @@ class ResultsDB:
         _retrying(self._conn, lambda c: c.executemany(query, rows.rows), "write to the results database")
 
     def table_rows(self, table: str) -> TableRows:
-        """Every row of `table` (runs, av_metrics, violations or leases), ordered by its first four columns."""
+        """Every row of `table` (runs, av_metrics, violations, transitions, episodes or leases), ordered by its
+        columns from the first."""
         return _retrying(self._conn, lambda c: _table_rows(c, table), "read the results database", "BEGIN")

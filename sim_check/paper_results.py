@@ -62,7 +62,7 @@ LANE_FIGURES = (
             ("mlca-c", 3): (4, 7, 11, 13),
             ("without", 3): (5, 9, 17, 20),
         },
-        extra=("mlca_r-c",),
+        extra=("mlca_r-c", "mlca_t-c"),
     ),
 )
 
@@ -70,7 +70,7 @@ LANE_FIGURES = (
 # without an algorithm where the figure shows 6. The paper does not say for how many AVs.
 COLLISION_CITE = "Fig. 5 (Sec. IV-E)"
 PAPER_COLLISIONS = {"sl2015": 0, "mobil": 2, "idm-lc": 1, "continuous": 0, "mlca-c": 1, "without": 6}
-COLLISION_ORDER = ("sl2015", "mobil", "idm-lc", "continuous", "mlca-c", "without", "lc2013", "mlca_r-c")
+COLLISION_ORDER = ("sl2015", "mobil", "idm-lc", "continuous", "mlca-c", "without", "lc2013", "mlca_r-c", "mlca_t-c")
 
 
 @dataclass(frozen=True)

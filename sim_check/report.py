@@ -20,8 +20,10 @@ import jinja2
 
 from mlca_verify.escape import one_line
 from mlca_verify.files import write_atomic
+from sim_check import loop_report, rss
 from sim_check.controllers import SETUPS
-from sim_check.db import MechanismTotals, ResultsDB, RunTotals
+from sim_check.db import LoopRows, MechanismTotals, ResultsDB, RunTotals
+from sim_check.loop_report import label, share
 from sim_check.paper_results import (
     CLAIMS,
     COLLISION_CITE,
@@ -67,6 +69,7 @@ class Group:
 class Data:
     db: Path
     groups: dict[Key, Group]
+    loop: LoopRows = field(default_factory=LoopRows)
 
     def values(self, controller: str, avs: int, metric: str, km: int = 20) -> list[float]:
         g = self.groups.get((controller, avs))
@@ -101,7 +104,7 @@ def load(results: ResultsDB) -> Data:
         _add_run(groups[(run.controller, run.avs)], run)
     for mechanism in rows.mechanism:
         _add_mechanism(groups[(mechanism.controller, mechanism.avs)], mechanism)
-    return Data(results.path, dict(groups))
+    return Data(results.path, dict(groups), rows.loop)
 
 
 def _add_run(g: Group, run: RunTotals) -> None:
@@ -124,10 +127,6 @@ def _add_mechanism(g: Group, m: MechanismTotals) -> None:
     g.open, g.deferred = int(m.open), int(m.deferred)
     g.need_s, g.deferred_s = float(m.need_s), float(m.deferred_s)
     g.state_s = {s: float(v or 0.0) for s, v in zip(STATES, m.state_s, strict=True)}
-
-
-def label(controller: str) -> str:
-    return SETUPS[controller].label if controller in SETUPS else controller
 
 
 Triple = tuple[float, float, float]
@@ -166,9 +165,15 @@ def _save(fig: Any, out: Path, stem: str) -> list[Path]:
 COLORS = ("#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3", "#937860")
 
 
+def shown(data: Data, fig_spec: LaneFigure) -> tuple[str, ...]:
+    """The controllers a lane-change figure shows: the paper's, and those beside them that have runs."""
+    extra = tuple(c for c in fig_spec.extra if any((c, avs) in data.groups for avs in (1, 3)))
+    return (*fig_spec.series, *extra)
+
+
 def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
     plt = _pyplot()
-    series = [(c, avs) for avs in (1, 3) for c in (*fig_spec.series, *fig_spec.extra)]
+    series = [(c, avs) for avs in (1, 3) for c in shown(data, fig_spec)]
     fig, ax = plt.subplots(figsize=(12.5, 4.8))
     width = 0.8 / (len(series) * 2)
     for k, (controller, avs) in enumerate(series):
@@ -330,10 +335,6 @@ def _environment() -> jinja2.Environment:
     return env
 
 
-def _share(part: int, whole: int) -> str:
-    return f"{part / max(whole, 1):.0%}"
-
-
 def _claims(data: Data) -> list[Row]:
     """key, text, cite, scope, verdict, measured, test per evaluation of each claim."""
     return [
@@ -347,7 +348,7 @@ def _lane_rows(data: Data, fig_spec: LaneFigure) -> list[Row]:
     """controller, AVs, km, paper, measured mean [95% CI], runs."""
     rows: list[Row] = []
     for avs in (1, 3):
-        for controller in (*fig_spec.series, *fig_spec.extra):
+        for controller in shown(data, fig_spec):
             paper = fig_spec.paper.get((controller, avs))
             for i, km in enumerate(MARKS):
                 values = data.values(controller, avs, "lc", km)
@@ -382,11 +383,11 @@ def _mechanism_rows(data: Data) -> list[dict[str, object]]:
                 "av_runs": n,
                 "episodes": g.needs,
                 "moved": g.moved,
-                "moved_share": _share(g.moved, g.needs),
+                "moved_share": share(g.moved, g.needs),
                 "deferred": g.deferred,
-                "deferred_share": _share(g.deferred, g.needs),
+                "deferred_share": share(g.deferred, g.needs),
                 "never_resolved": g.open,
-                "never_resolved_share": _share(g.open, g.needs),
+                "never_resolved_share": share(g.open, g.needs),
                 "need_s": f"{g.need_s / n:.1f}",
                 "deferred_s": f"{g.deferred_s / n:.1f}",
                 "state_s": [f"{g.state_s[s] / n:.1f}" if machine else "-" for s in STATES],
@@ -424,6 +425,11 @@ def markdown(data: Data, figures: list[Path]) -> str:
         "states": STATES,
         "mechanism": _mechanism_rows(data),
         "cost": _cost_rows(data),
+        "coverage": loop_report.coverage(data.loop),
+        "shadow": loop_report.shadow(data.loop),
+        "wish_reasons": loop_report.wish_reasons(data.loop),
+        "safety": loop_report.safety(data.loop),
+        "rss": rss.spec_params(),
         "files": [p.name for p in figures],
     }
     return _environment().get_template(TEMPLATE).render(values)

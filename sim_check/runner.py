@@ -1,50 +1,68 @@
-"""One closed-loop run: SUMO through libsumo, sensing, the generated controller, the runtime monitor, metrics.
+"""One closed-loop run: SUMO through libsumo, the need, sensing, the generated controller, the runtime monitor,
+metrics.
 
 One libsumo simulation per process (libsumo keeps one global simulation); the sweep runs each run in a worker
 process. For the generated machines, MOBIL and "without", SUMO's own lane changing is off for the AVs
 (laneChangeMode 0): every lane change they make is one the controller commanded, executed by SUMO even where
 unsafe, so the controller's own safety is what is measured. For SUMO's models the AV keeps SUMO's defaults.
 
+Every sensed controller (the generated machines and "without") decides on one need (sim_check.need): by default
+SUMO's own lane-change model's wish. A boolean machine (MLCA, MLCA-R) gets N, W, L and R from sim_check.sensing;
+a machine with data (MLCA-T) gets N, U and the raw signals (sim_check.signals) and decides with its generated code
+alone: sim_check holds none of its thresholds.
+
+Counting: a lane change is every change of lane that is not the lane's own continuation into the next edge or
+junction, so a change in the step an edge is entered counts; its position is measured from the merge (the start
+of the acceleration lane). A generated machine's move is commanded when the machine enters MOVING_LEFT or
+MOVING_RIGHT; a command for the same move while the machine stays there (after DWELL_S: the move goes on after one
+change, or SUMO has not executed it) is a repeat, counted apart. "Without" commands whenever its need holds,
+at most once per DWELL_S, and MOBIL whenever its incentive says so; theirs are commands too.
+
 Besides the paper's metrics, each AV records why it changed lane or did not (the mechanism): the episodes in
 which N held, whether the AV changed lane in each or it was never resolved, whether a safe gap towards the
-wanted side was seen and not taken (deferred), and the time spent in each state of the machine.
+wanted side was seen and not taken (deferred), the time spent in each state of the machine, how often each of
+its transitions fired, and (the shadow mode) what the controller did with each wish episode of its need.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
+import re
 import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.targets import HOLDS, STATE_BITS
-from sim_check import mobil
-from sim_check.controllers import Controller, Setup, load_controller, setup_of
+from mlca_verify.targets import DEFS_SHIFT, FIRED_MASK, FIRED_SHIFT, HOLDS, STATE_BITS
+from sim_check import mobil, rss, ssm
+from sim_check.controllers import Controller, DataController, Setup, load_controller, setup_of
+from sim_check.need import URGENT_M, Need, middle_goal, sumo_wish
 from sim_check.reads import Leader, Reads
-from sim_check.results import AvMetrics, RunResult, Violation
+from sim_check.results import SIDES, AvMetrics, Episode, RunResult, Violation
 from sim_check.scenario import Scenario, build, sumo_command
-from sim_check.sensing import LaneClaim, Network, decides_on, sense
+from sim_check.sensing import LaneClaim, Network, claimed, decides_on, sense
+from sim_check.signals import UNSENSED, signals
 
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
-DWELL_S = 3.0  # a commanded lane change is not repeated within this time (SUMO's change is instantaneous)
+DWELL_S = 3.0  # a command is not repeated within this time (SUMO's change is instantaneous)
 TRACE_STEPS = 20  # steps of history stored with a monitor violation
 SIM_LIMIT_S = 3600.0
 SAMPLE_STEPS = 10  # the background traffic's speed is sampled every this many steps
-SIDES = {"MOVING_LEFT": +1, "MOVING_RIGHT": -1}  # the states that move the AV, and the side they move it to
+UNSAFE_TEXT = re.compile(r"[^A-Za-z0-9_.-]")
+MERGE_EDGE = "acc"  # lane changes are measured from the start of this edge (where a route has it)
 
 
 @dataclass
-class Need:
+class NeedEpisode:
     """The N episode an AV is in: whether the AV has changed lane in it, or passed up a safe gap."""
 
     moved: bool = False
     deferred: bool = False
 
 
-History = deque[tuple[float, int, dict[str, bool], int]]
+History = deque[tuple[float, int, dict[str, Any], int]]
 
 
 @dataclass(slots=True, eq=False)
@@ -56,12 +74,19 @@ class Driving:
     state: int  # the generated machine's state (fsm controllers)
     state_s: list[float]  # seconds spent in each state of the machine, by state
     history: History  # (time, state, inputs, next state) of the last steps, the trace stored with a violation
+    fired: list[int]  # how often each transition fired, by number (0: none fired)
+    ctx: Any = None  # a machine with data: its context
     edge: str = ""  # where the AV was the step before
     lane: int = -1
+    lane_id: str = ""
     braking: bool = False  # whether it braked harder than EMERGENCY_DECEL the step before
     close: set[str] = field(default_factory=set)  # vehicles within its minGap the step before
-    need: Need | None = None  # the N episode it is in
+    need: NeedEpisode | None = None  # the N episode it is in
+    episode: Episode | None = None  # the wish episode it is in (shadow mode)
     last_change: float = -math.inf  # when it was last commanded to change lane
+    moving: int = 0  # the side of the move under way (a generated machine in MOVING_*), 0 none
+    last_fired: int = 0  # the transition that fired in the machine's last step, by number from 1 (0: none)
+    merge_m: float = 0.0  # its odometer at the merge
 
 
 class ClosedLoop:
@@ -70,22 +95,34 @@ class ClosedLoop:
     Its step runs between two SUMO steps, every step of every run, and SUMO's step leaves the caches cold for it:
     each Python call and each object it touches costs there several times what it costs in a warm loop. So a
     step keeps each AV's state in one object (`Driving`), reads through the bound `Reads`, and keeps to a few
-    calls per AV: observing it (`drive`), sensing, the machine and its monitor, the mechanism's accounting; the
-    rare events (a departure, an arrival, a collision, a min-gap contact, a command) have their own methods."""
+    calls per AV: observing it (`drive`), the need, sensing, the machine and its monitor, the mechanism's
+    accounting; the rare events (a departure, an arrival, a collision, a min-gap contact, a lane change, a
+    command) have their own methods."""
 
     def __init__(self, sumo: Any, setup: Setup, scenario: Scenario, av_ids: tuple[str, ...]) -> None:
         self.sumo = sumo
         self.read = Reads(sumo)
         self.network = Network(sumo)
         self.setup = setup
-        self.ctrl: Controller | None = load_controller(setup.name) if setup.kind == "fsm" else None
+        ctrl = load_controller(setup.name) if setup.kind == "fsm" else None
+        self.ctrl: Controller | None = ctrl if isinstance(ctrl, Controller) else None
+        self.data: DataController | None = ctrl if isinstance(ctrl, DataController) else None
+        states = ctrl.states if ctrl else ()
+        self.states = states
+        self.transitions = ctrl.transitions if ctrl else ()
+        # a machine with data: the bits of its answer that say a gap is safe (its definitions L and R)
+        flags = self.data.flags if self.data else ()
+        self.safe_bits = sum(1 << (DEFS_SHIFT + k) for k, name in enumerate(flags) if name in ("L", "R"))
         # the side each state of the machine moves to: +1 left, -1 right, 0 none
-        self.sides = tuple(SIDES.get(s, 0) for s in self.ctrl.states) if self.ctrl else ()
-        self.decide = {"fsm": self.decide_sensed, "without": self.decide_sensed, "mobil": self.decide_mobil}.get(
-            setup.kind
-        )
+        self.sides = tuple(SIDES.get(s, 0) for s in states)
+        self.decide = {"without": self.decide_sensed, "mobil": self.decide_mobil}.get(setup.kind)
+        if self.ctrl is not None:
+            self.decide = self.decide_sensed
+        if self.data is not None:
+            self.decide = self.decide_data
         self.scenario = scenario
         self.target = scenario.target_lane
+        self.sumo_need = scenario.traffic.need == "sumo"
         self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
         self.avs: dict[str, Driving] = {}  # every AV that has departed
         self.driving: list[Driving] = []  # those not yet arrived, in the order of their ids
@@ -97,7 +134,10 @@ class ClosedLoop:
         self.dt = scenario.traffic.step_s
         self.steps = 0
         self.bg_speed = [0.0, 0]  # sum of sampled speeds, number of samples
+        self.density = [0.0, 0]  # sum of sampled densities (vehicles per km per lane), number of samples
         self.edges: list[str] = []
+        self.rss = rss.spec_params()
+        self.lane_km = 0.0  # the kilometres of lane of the normal edges
         self.remaining = len(av_ids)  # the AVs that have not arrived
 
     def step(self, t: float) -> None:
@@ -126,7 +166,13 @@ class ClosedLoop:
         m = self.metrics[vid]
         m.depart_s = t
         av = self.avs[vid] = Driving(
-            vid, m, ctrl.initial if ctrl else 0, [0.0] * len(self.sides), deque(maxlen=TRACE_STEPS)
+            vid,
+            m,
+            ctrl.initial if ctrl else 0,
+            [0.0] * len(self.sides),
+            deque(maxlen=TRACE_STEPS),
+            [0] * (len(self.transitions) + 1),
+            ctx=self.data.context() if self.data else None,
         )
         self.driving.append(av)
         self.driving.sort(key=lambda d: d.id)
@@ -149,20 +195,27 @@ class ClosedLoop:
                 if av.need is not None:
                     av.m.needs_open += 1
                     av.need = None
+                self.end_episode(av)
 
     def sample(self, av_speeds: float, avs: int) -> None:
-        """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs)."""
+        """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs), and the density
+        of all traffic (vehicles per km of lane on the normal edges)."""
         if not self.edges:
             self.edges = [e for e in self.sumo.edge.getIDList() if not e.startswith(":")]
-        total, count = -av_speeds, -avs
+            self.lane_km = sum(self.network.lane_length(e) * self.network.lanes[e] for e in self.edges) / 1000.0
+        total, count, vehicles = -av_speeds, -avs, 0
         for e in self.edges:
             n = self.read.edge_vehicles(e)
             if n:
                 total += self.read.edge_speed(e) * n
                 count += n
+                vehicles += n
         if count > 0:
             self.bg_speed[0] += total
             self.bg_speed[1] += count
+        if self.lane_km > 0:
+            self.density[0] += vehicles / self.lane_km
+            self.density[1] += 1
 
     def collide(self, collisions: Any) -> None:
         """Count the colliding pairs SUMO reports this step (a pair is counted once, however long it touches)."""
@@ -178,15 +231,11 @@ class ClosedLoop:
     def drive(self, av: Driving, t: float, claims: list[LaneClaim]) -> float:
         """One step of one AV: observe it (its metrics), and let its controller decide. Returns its speed."""
         read, m, vid = self.read, av.m, av.id
+        lane_id = read.lane_id(vid)
         edge, lane, pos = read.road(vid), read.lane(vid), read.position(vid)
         m.distance_m = read.distance(vid)
-        if lane != av.lane and edge == av.edge and edge[:1] != ":":
-            m.lane_changes.append(m.distance_m)
-            need = av.need
-            if need is not None and not need.moved:
-                need.moved = True
-                m.needs_moved += 1
-        av.edge, av.lane = edge, lane
+        if lane_id != av.lane_id:
+            self.moved_on(av, t, lane_id, edge, lane)
         braking = read.acceleration(vid) < -EMERGENCY_DECEL
         if braking and not av.braking:
             m.emergency_brakes += 1
@@ -206,9 +255,50 @@ class ClosedLoop:
         if ahead or behind or av.close:
             self.contacts(av, ahead, behind)
         self.trail.append((vid, edge, lane, pos))
-        if self.decide is not None:
+        if self.decide is not None and decides_on(edge):
             self.decide(av, t, claims, (edge, lane, pos), leader=leader, speed=speed)
         return speed
+
+    def moved_on(self, av: Driving, t: float, lane_id: str, edge: str, lane: int) -> None:
+        """The AV is on another lane than the step before: a lane change, unless the lane is the old one's
+        continuation (into a junction or the next edge); entering the merge edge sets the odometer's zero."""
+        if edge == MERGE_EDGE and av.edge != MERGE_EDGE:
+            av.merge_m = av.m.distance_m
+        side = self.network.change(av.lane_id, lane_id) if av.lane_id else 0
+        if side:
+            self.changed(av, t, side)
+        av.edge, av.lane, av.lane_id = edge, lane, lane_id
+
+    def changed(self, av: Driving, t: float, side: int) -> None:
+        """The AV changed lane towards `side` this step: count it, and credit the episodes it ends."""
+        m = av.m
+        m.lane_changes.append(m.distance_m - av.merge_m)
+        self.check_change(av)
+        need = av.need
+        if need is not None and not need.moved:
+            need.moved = True
+            m.needs_moved += 1
+        episode = av.episode
+        if episode is not None and episode.side == side and episode.outcome == "refused":
+            delay = max(0.0, t - episode.start_s - self.dt)
+            episode.delay_s = round(delay, 3)
+            episode.outcome = "at_once" if delay < self.dt / 2 else "deferred"
+
+    def check_change(self, av: Driving) -> None:
+        """The gaps to the new leader and from the new follower at the step the change is executed (physical: SUMO's
+        gaps plus the rear vehicle's minGap), their minimum over the AV's changes, and RSS's check of both."""
+        read, m, vid = self.read, av.m, av.id
+        v = read.speed(vid)
+        found = read.leader(vid, 1000.0)
+        leader = (found[1] + read.min_gap(vid), read.speed(found[0])) if found and found[0] else None
+        behind = read.follower(vid, 1000.0)
+        follower = (behind[1] + read.min_gap(behind[0]), read.speed(behind[0])) if behind[0] else None
+        if leader is not None and (m.lc_min_gap_lead_m is None or leader[0] < m.lc_min_gap_lead_m):
+            m.lc_min_gap_lead_m = leader[0]
+        if follower is not None and (m.lc_min_gap_follow_m is None or follower[0] < m.lc_min_gap_follow_m):
+            m.lc_min_gap_follow_m = follower[0]
+        if not rss.change_is_safe(v, leader, follower, self.rss):
+            m.lc_rss_unsafe += 1
 
     def contacts(self, av: Driving, ahead: str, behind: str) -> None:
         """Count the min-gap contacts that begin this step: the vehicles within the AV's minGap ahead or behind
@@ -222,6 +312,17 @@ class ClosedLoop:
         lines = "".join(f"{av}|{edge}|{lane}|{pos:.3f}\n" for av, edge, lane, pos in self.trail)
         return hashlib.sha256(lines.encode()).hexdigest()
 
+    def need_of(self, av: Driving, where: tuple[str, int, float], leader: Leader) -> Need:
+        """The AV's need this step, from the scenario's source (sim_check.need)."""
+        edge, lane, pos = where
+        urgent_end = self.network.lane_end(edge, lane, pos) < URGENT_M
+        if self.sumo_need:
+            return sumo_wish(self.read, av.id, urgent_end)
+        lanes = self.network.lanes[edge]
+        return middle_goal(
+            self.read, av.id, (edge, lane), lanes=lanes, target=self.target, leader=leader, urgent_end=urgent_end
+        )
+
     def decide_sensed(
         self,
         av: Driving,
@@ -232,19 +333,57 @@ class ClosedLoop:
         leader: Leader,
         speed: float,
     ) -> None:
-        """The sensed inputs decide: through the generated machine (fsm), whose lane is then claimed for the other
-        AVs, or, "without algorithm", wherever N points (the direction is 0 exactly when N does not hold)."""
-        sensed = sense(
-            self.read, self.network, av.id, where, target=self.target, claims=claims, leader=leader, speed=speed
-        )
-        if sensed is None:
+        """A boolean machine decides on N, W, L and R (sim_check.sensing), its lane then claimed for the other AVs;
+        or, "without algorithm", the AV moves wherever the need points."""
+        need = self.need_of(av, where, leader)
+        self.wish(av, t, need)
+        if self.ctrl is None:
+            self.move(av, t, where, need.side, None)
+            self.track(av, need, False, need.side)
             return
-        inputs, direction = sensed
-        side = self.machine(av, t, inputs) if self.ctrl is not None else direction
-        if side and self.command(av, t, where[1] + side) and self.ctrl is not None:
-            claims.append(LaneClaim(av.id, where[0], where[1] + side, where[2]))
-        if inputs["N"] or av.need is not None:
-            self.account(av, inputs, side)
+        inputs = sense(self.read, self.network, av.id, where, need, claims=claims, speed=speed)
+        side = self.machine(av, t, inputs)
+        self.move(av, t, where, side, claims)
+        self.track(av, need, inputs["L"] or inputs["R"], side)
+
+    def decide_data(
+        self,
+        av: Driving,
+        t: float,
+        claims: list[LaneClaim],
+        where: tuple[str, int, float],
+        *,
+        leader: Leader,
+        speed: float,
+    ) -> None:
+        """A machine with data decides on N, U and the raw signals, with its generated code alone; a side another
+        AV claimed near the same position this step (V2V) is reported unsensed."""
+        edge, lane, pos = where
+        need = self.need_of(av, where, leader)
+        self.wish(av, t, need)
+        lanes = self.network.lanes[edge]
+        sensed = signals(self.read, av.id, lane, lanes=lanes, speed=speed, side=need.side)
+        if need.side and claimed(claims, av.id, edge, lane + need.side, pos):
+            sensed = (speed, *UNSENSED, *UNSENSED)
+        side, safe = self.data_machine(av, t, need, sensed)
+        self.move(av, t, where, side, claims)
+        self.track(av, need, safe, side)
+
+    def data_machine(self, av: Driving, t: float, need: Need, sensed: tuple[float, ...]) -> tuple[int, bool]:
+        """One step of the machine with data and its runtime monitor: the side its command moves to (+1, -1 or 0),
+        and whether it saw a safe gap (its L or R)."""
+        data = self.data
+        assert data is not None
+        old = av.state
+        packed, *outputs = data.advance(av.ctx, need.side != 0, need.urgent, *sensed)
+        new = av.state = packed & STATE_BITS
+        fired = av.last_fired = max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1)
+        av.fired[fired] += 1
+        av.state_s[new] += self.dt
+        av.history.append((t, old, {"N": need.side != 0, "U": need.urgent, "signals": sensed}, new))
+        if not packed & HOLDS:
+            self.violation(av, t, data.failing())
+        return outputs[data.command_at], bool(packed & self.safe_bits)
 
     def decide_mobil(
         self,
@@ -259,22 +398,23 @@ class ClosedLoop:
         """MOBIL (sim_check.mobil) decides, where the AV makes lane decisions; the end of the acceleration lane is
         a standing obstacle to it."""
         edge, lane, pos = where
-        if not decides_on(edge):
-            return
         end = self.network.lane_end(edge, lane, pos)
         lowest = 1 if edge == "acc" and lane > 0 else 0
         lanes = self.network.lanes[edge]
         side = mobil.decide(self.read, av.id, lane, lanes, leader=leader, lane_end=end, lowest=lowest)
         if side:
-            self.command(av, t, lane + side)
+            self.command(av, t, lane + side, repeat=False)
 
     def machine(self, av: Driving, t: float, inputs: dict[str, bool]) -> int:
-        """One step of the generated machine and its runtime monitor; the side it moves to (+1, -1 or 0)."""
+        """One step of the boolean machine and its runtime monitor; the side it moves to (+1, -1 or 0)."""
         ctrl = self.ctrl
         assert ctrl is not None
         old = av.state
-        answer = ctrl.packed(old, *ctrl.values(inputs))
+        values = ctrl.values(inputs)
+        answer = ctrl.packed(old, *values)
         new = av.state = answer & STATE_BITS
+        fired = av.last_fired = ctrl.fired.get((old, values), 0)
+        av.fired[fired] += 1
         av.state_s[new] += self.dt
         av.history.append((t, old, inputs, new))
         if not answer & HOLDS:
@@ -283,47 +423,110 @@ class ClosedLoop:
 
     def violation(self, av: Driving, t: float, failing: list[str]) -> None:
         """Store a runtime-monitor violation with the steps that led to it."""
-        assert self.ctrl is not None
-        names = self.ctrl.states
+        names = self.states
         trace = [
-            {"t": round(when, 3), "state": names[old], "inputs": inputs, "next": names[new]}
+            {"t": round(when, 3), "state": names[old], "inputs": _plain(inputs), "next": names[new]}
             for when, old, inputs, new in av.history
         ]
         av.m.monitor_violations += 1
         self.violations.append(Violation(av.id, round(t, 3), failing, trace))
 
-    def command(self, av: Driving, t: float, target: int) -> bool:
-        """Ask SUMO for a lane change, at most once per DWELL_S (SUMO's change is instantaneous)."""
+    def move(
+        self, av: Driving, t: float, where: tuple[str, int, float], side: int, claims: list[LaneClaim] | None
+    ) -> None:
+        """The side a controller moves to this step (a generated machine's state, or "without"'s need): a move is
+        commanded when the side begins (as soon as DWELL_S has passed since the last command), and again (a
+        repeat) while it lasts, at most once per DWELL_S; the lane moved to is claimed for the other AVs where
+        `claims` is given (V2V, the generated machines)."""
+        if not side:
+            av.moving = 0
+            return
+        if side == av.moving and t - av.last_change < DWELL_S:
+            return
+        edge, lane, pos = where
+        if self.command(av, t, lane + side, repeat=side == av.moving):
+            av.moving = side
+            if claims is not None:
+                claims.append(LaneClaim(av.id, edge, lane + side, pos))
+
+    def command(self, av: Driving, t: float, target: int, *, repeat: bool) -> bool:
+        """Ask SUMO for a lane change (SUMO's change is instantaneous), at most once per DWELL_S; SUMO's own
+        lane-change output names the controller's reason (the vehicle parameter lcReason)."""
         if t - av.last_change < DWELL_S:
             return False
+        self.sumo.vehicle.setParameter(av.id, "lcReason", self.reason(av))
         self.sumo.vehicle.changeLane(av.id, target, 1.0)
         av.last_change = t
+        av.m.commands += 1
+        av.m.repeats += repeat
         return True
 
-    def account(self, av: Driving, inputs: dict[str, bool], side: int) -> None:
+    def reason(self, av: Driving) -> str:
+        """Why the controller commands a change, as SUMO's lane-change output is to name it after its own reasons
+        (hence the leading "|"): the controller, the transition that fired (a generated machine), the need's
+        reason; only letters, digits and `_.-` of each (a transition id is spec text, and SUMO writes the value
+        into XML as it is)."""
+        parts = [self.setup.name]
+        if av.last_fired:
+            parts.append(self.transitions[av.last_fired - 1])
+        if av.episode is not None:
+            parts.append(av.episode.reason)
+        return "|" + ":".join(UNSAFE_TEXT.sub("", part) for part in parts)
+
+    def wish(self, av: Driving, t: float, need: Need) -> None:
+        """The shadow mode's wish episodes, before the controller steps: the episode the AV was in ends where the
+        need points elsewhere or for another reason (its state is the machine's at its last step); a new one
+        begins; an episode that turns urgent is urgent."""
+        episode = av.episode
+        if episode is not None and (need.side, need.reason) != (episode.side, episode.reason):
+            self.end_episode(av)
+            episode = None
+        if need.side and episode is None:
+            av.episode = Episode(round(t, 3), need.side, need.reason, need.urgent)
+        elif episode is not None and need.urgent:
+            episode.urgent = True
+
+    def track(self, av: Driving, need: Need, safe: bool, side: int) -> None:
         """The mechanism: N episodes, and safe gaps towards the wanted side that the controller did not take."""
-        if not inputs["N"]:
+        if not need.side:
             av.need = None
             return
-        m, need = av.m, av.need
-        if need is None:
-            need = av.need = Need()
+        m, current = av.m, av.need
+        if current is None:
+            current = av.need = NeedEpisode()
             m.needs += 1
         m.need_s += self.dt
-        if (inputs["L"] or inputs["R"]) and not side:
+        if safe and not side:
             m.deferred_s += self.dt
-            if not need.deferred:
-                need.deferred = True
+            if not current.deferred:
+                current.deferred = True
                 m.needs_deferred += 1
+
+    def end_episode(self, av: Driving) -> None:
+        episode = av.episode
+        if episode is not None:
+            episode.state = self.states[av.state] if self.states else ""
+            av.m.episodes.append(episode)
+            av.episode = None
 
     def finish(self) -> list[AvMetrics]:
         """Every AV's metrics at the end of the run, in the order the loop was given the AVs. The time in each
-        state of the machine, kept by state number during the run, is put in by state name (the states an AV was
-        never in are left out)."""
-        if self.ctrl is not None:
-            for av in self.avs.values():
-                av.m.state_s = {self.ctrl.states[k]: s for k, s in enumerate(av.state_s) if s}
+        state of the machine and the transitions fired, kept by number during the run, are put in by name (the
+        states an AV was never in are left out; every transition is listed)."""
+        for av in self.avs.values():
+            self.end_episode(av)
+            if self.states:
+                av.m.state_s = {self.states[k]: s for k, s in enumerate(av.state_s) if s}
+                av.m.transitions = {tid: av.fired[k + 1] for k, tid in enumerate(self.transitions)}
         return list(self.metrics.values())
+
+
+def _plain(inputs: dict[str, Any]) -> dict[str, Any]:
+    """A step's inputs as JSON stores them: a signal that is not a finite number as null."""
+    signals_ = inputs.get("signals")
+    if signals_ is None:
+        return inputs
+    return {**inputs, "signals": [v if math.isfinite(v) else None for v in signals_]}
 
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
@@ -349,7 +552,9 @@ def run_once(
     built = build(scenario, seed, work, setup.av_type)
     if setup.kind == "fsm":
         load_controller(controller)  # compiled before SUMO starts; cached for the loop
-    libsumo.start(sumo_args(scenario, built.net, built.routes, seed, setup.options))
+    conflicts = work / f"ssm_{seed}_{scenario.traffic.avs}.xml"
+    options = (*setup.options, *ssm.options(built.av_ids, conflicts))
+    libsumo.start(sumo_args(scenario, built.net, built.routes, seed, options))
     loop = ClosedLoop(libsumo, setup, scenario, built.av_ids)
     result = RunResult(controller, scenario.traffic.avs, seed)
     read, steps, vehicle_steps = loop.read, 0, 0
@@ -370,7 +575,15 @@ def run_once(
     result.sim_steps, result.vehicle_steps = steps, vehicle_steps
     result.collisions = len(loop.pairs)
     result.bg_mean_speed_ms = loop.bg_speed[0] / loop.bg_speed[1] if loop.bg_speed[1] else None
+    result.density_veh_km_lane = round(loop.density[0] / loop.density[1], 3) if loop.density[1] else None
     result.metrics = loop.finish()
+    for m, found in zip(result.metrics, ssm.read(conflicts, built.av_ids).values(), strict=True):
+        m.ssm_conflicts, m.ssm_min_ttc_s, m.ssm_max_drac, m.ssm_min_pet_s = (
+            found.count,
+            found.min_ttc_s,
+            found.max_drac,
+            found.min_pet_s,
+        )
     result.violations = loop.violations
     result.trajectory_sha256 = loop.trajectory_sha256()
     result.wall_s = time.perf_counter() - start
@@ -389,7 +602,8 @@ def run_plain(
     setup = setup or setup_of("lc2013")
     built = build(scenario, seed, work, setup.av_type)
     start = time.perf_counter()
-    libsumo.start(sumo_args(scenario, built.net, built.routes, seed, setup.options))
+    options = (*setup.options, *ssm.options(built.av_ids, work / f"ssm_plain_{seed}.xml"))
+    libsumo.start(sumo_args(scenario, built.net, built.routes, seed, options))
     read, waiting, steps, vehicle_steps = Reads(libsumo), set(built.av_ids), 0, 0
     try:
         while waiting and read.time() <= limit_s:

@@ -20,6 +20,7 @@ from typing import Any
 from mlca_verify.errors import Loc, SpecError, ToolError
 from mlca_verify.files import read_regular
 from mlca_verify.spec.locate import Locator
+from sim_check.need import NEED_SOURCES
 
 PAPER = Path(__file__).with_name("paper.toml")
 MAX_SCENARIO_BYTES = 1_000_000
@@ -48,6 +49,7 @@ class Traffic:
     av_depart_s: float = 30
     step_s: float = 0.1
     target_lane: str = "middle"
+    need: str = "sumo"  # where the sensed controllers' need comes from (sim_check.need): sumo or middle
 
 
 LIMITS: dict[str, tuple[float, float]] = {  # beyond these a value is a mistake, or a run no machine finishes
@@ -170,6 +172,8 @@ def _number(
 def _text(key: str, given: object, at: Loc, what: str) -> str:
     if not isinstance(given, str):
         raise SpecError(at, f"{what} must be a string, got {_show(given)}")
+    if key == "need" and given not in NEED_SOURCES:
+        raise SpecError(at, f"{what} must be one of {', '.join(NEED_SOURCES)}, got {_show(given)}")
     if key == "route" and (bad := re.search(r"[<>&\"'\x00-\x1f]", given.replace("\t", " "))):
         raise SpecError(at, f"{what}: edge ids cannot hold {bad[0]!r}")
     return given

@@ -1,20 +1,14 @@
-"""Sensing: N, W, L and R for one AV from libsumo, with the thresholds the docs state.
+"""Sensing for the boolean machines (MLCA, MLCA-R): N, W, L and R for one AV from its need and libsumo, with the
+thresholds the docs state.
 
-- N, a lane change is wanted, for one of two reasons:
-  - the AV is not in its wanted lane. On the acceleration lane (the merge) the wanted lane is the highway's target
-    lane (the middle one, Sec. III); on the highway it is the target lane; on an imported OpenStreetMap road, the
-    middle lane of the current edge. The direction is towards the wanted lane. While the leader in the next lane
-    on that side is slow (below) and within `LOOKAHEAD_M`, the AV is still overtaking it and N does not hold.
-  - in its wanted lane, the leader within `LOOKAHEAD_M` is slow: slower than `SLOWER` times the AV's allowed
-    speed. The direction is left (overtaking), or right where there is no lane to the left.
-  N drops as soon as neither holds (finding F8: nothing else ends a lane change).
-- W, the AV can afford to wait: its current lane continues for more than `URGENT_M` metres (the acceleration
-  lane ends; the highway lanes do not).
-- L, R: the gap on that side is safe, and moving to that side brings the AV closer to its wanted lane. Safe:
-  the leader in that lane is at least `TIME_GAP_S` ahead in time gap (and `MIN_GAP_M`), the follower at least
-  `TIME_GAP_S` behind at its own speed, and the follower would not need to brake harder than `FOLLOWER_DECEL`
-  to keep from closing the gap (a vehicle beside the AV is reported as a leader or follower with a negative gap,
-  so it fails the check); and no other AV has claimed that lane near the same position this step (V2V).
+- N: the AV has a need (sim_check.need: SUMO's own model's wish, or the paper's middle-lane goal); W: it is not
+  urgent.
+- L, R: the need points to that side, and the gap there is safe: the leader in that lane is at least `TIME_GAP_S`
+  ahead in time gap (and `MIN_GAP_M`), the follower at least `TIME_GAP_S` behind at its own speed, and the follower
+  would not need to brake harder than `FOLLOWER_DECEL` to keep from closing the gap (a vehicle beside the AV is
+  reported as a leader or follower with a negative gap, so it fails the check); and no other AV has claimed that
+  lane near the same position this step (V2V). This time-gap rule is the paper's reading, kept for the boolean
+  machines; it is not safe by RSS (docs/findings.md F10): MLCA-T's rule is in its spec.
 """
 
 from __future__ import annotations
@@ -23,11 +17,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from sim_check.reads import Leader, Reads
+from sim_check.need import Need
+from sim_check.reads import Reads
 
-URGENT_M = 100.0
-LOOKAHEAD_M = 100.0
-SLOWER = 0.9
 TIME_GAP_S = 1.0
 MIN_GAP_M = 3.0
 FOLLOWER_DECEL = 4.0
@@ -70,17 +62,61 @@ class Network:
         self._sumo = sumo
         self.lanes = LaneCounts(sumo)  # network.lanes[edge]: the number of lanes of `edge`
         self._lengths: dict[str, float] = {}
+        self._next: dict[str, frozenset[str]] = {}
+
+    def lane_length(self, edge: str) -> float:
+        """The length of `edge` (of its first lane)."""
+        return self.length(f"{edge}_0")
+
+    def length(self, lane_id: str) -> float:
+        length = self._lengths.get(lane_id)
+        if length is None:
+            length = self._lengths[lane_id] = self._sumo.lane.getLength(lane_id)
+        return length
+
+    def following(self, lane_id: str) -> frozenset[str]:
+        """The lanes a vehicle on `lane_id` drives on next without changing lane: the junction's internal lane and
+        the lane after it."""
+        found = self._next.get(lane_id)
+        if found is None:
+            links = self._sumo.lane.getLinks(lane_id)
+            found = self._next[lane_id] = frozenset(name for link in links for name in link[:5:4] if name)
+        return found
+
+    def change(self, old: str, new: str) -> int:
+        """The lane change that took a vehicle from lane `old` to lane `new` in one step: 0 where `new` follows
+        `old` (no change), else its side (+1 left, -1 right), measured against the lane that follows `old` on
+        `new`'s edge where there is one (a change in the step an edge is entered)."""
+        if new in self.following(old):
+            return 0
+        old_edge, old_index = _split(old)
+        new_edge, new_index = _split(new)
+        if old_edge != new_edge:
+            for lane in self.following(old):
+                edge, index = _split(lane)
+                if edge == new_edge:
+                    old_index = index
+                    break
+            else:
+                for lane in self.following(old):  # through the junction's internal lane
+                    for after in self.following(lane):
+                        edge, index = _split(after)
+                        if edge == new_edge:
+                            old_index = index
+        return (new_index > old_index) - (new_index < old_index)
 
     def lane_end(self, edge: str, lane: int, pos: float) -> float:
         """Metres to the end of the AV's lane: the acceleration lane (lane 0 of `acc`) ends, every other
         continues."""
         if edge != "acc" or lane != 0:
             return math.inf
-        lane_id = f"{edge}_{lane}"
-        length = self._lengths.get(lane_id)
-        if length is None:
-            length = self._lengths[lane_id] = self._sumo.lane.getLength(lane_id)
-        return length - pos
+        return self.length(f"{edge}_{lane}") - pos
+
+
+def _split(lane_id: str) -> tuple[str, int]:
+    """A lane id's edge and index (SUMO names a lane `<edge>_<index>`)."""
+    edge, _, index = lane_id.rpartition("_")
+    return edge, int(index)
 
 
 def _gap_ok(read: Reads, av: str, side: int, v: float) -> bool:
@@ -97,7 +133,7 @@ def _gap_ok(read: Reads, av: str, side: int, v: float) -> bool:
     return True
 
 
-def _claimed(claims: list[LaneClaim], av: str, edge: str, lane: int, pos: float) -> bool:
+def claimed(claims: list[LaneClaim], av: str, edge: str, lane: int, pos: float) -> bool:
     return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
 
 
@@ -106,46 +142,20 @@ def sense(
     network: Network,
     av: str,
     where: tuple[str, int, float],
+    need: Need,
     *,
-    target: int,
     claims: list[LaneClaim],
-    leader: Leader,
     speed: float,
-) -> tuple[dict[str, bool], int] | None:
-    """The inputs of one step and the direction of the wanted lane (+1 left, -1 right, 0 none wanted), or None
-    where the AV makes no decision (on the ramp, inside a junction). `where` is the AV's edge, lane index and
-    position on the lane, `leader` its leader and `speed` its speed, already read this step; `network` is the
-    run's `Network`, `target` the highway's target lane and `claims` the lanes other AVs claimed this step.
-    Called every step for every AV, between two SUMO steps: the common case (the AV in its wanted lane) makes no
-    Python call but this one."""
+) -> dict[str, bool]:
+    """The inputs of one step. `where` is the AV's edge, lane index and position on the lane, `speed` its speed,
+    already read this step; `network` is the run's `Network` and `claims` the lanes other AVs claimed this step."""
     edge, lane, pos = where
-    if edge == "ramp" or edge[:1] == ":":  # decides_on(edge), inline
-        return None
-    lanes = network.lanes[edge]
-    if edge == "acc":  # the merge: lane i+1 of the acceleration edge continues as lane i of the highway
-        wanted = target + 1
-    elif edge in ("hw", "hw_in"):
-        wanted = target
-    else:  # an imported OpenStreetMap road: its middle lane
-        wanted = lanes // 2
-    direction = (wanted > lane) - (wanted < lane)
-    if direction == 0:
-        if (  # the leader is slow (below SLOWER times the AV's allowed speed) within LOOKAHEAD_M: overtake it
-            leader is not None and leader[1] < LOOKAHEAD_M and read.speed(leader[0]) < SLOWER * read.allowed_speed(av)
-        ):
-            direction = 1 if lane + 1 < lanes else -1
-    elif edge != "acc":  # back towards the wanted lane, unless still overtaking a slow leader there
-        slow = SLOWER * read.allowed_speed(av)
-        for vid, gap in read.neighbours(av, direction, leaders=True):
-            if gap < LOOKAHEAD_M and read.speed(vid) < slow:
-                direction = 0
-                break
-    left = direction > 0 and lane + 1 < lanes and not _claimed(claims, av, edge, lane + 1, pos)
-    right = direction < 0 and lane > 0 and not _claimed(claims, av, edge, lane - 1, pos)
-    inputs = {
-        "N": direction != 0,
-        "W": edge != "acc" or network.lane_end(edge, lane, pos) >= URGENT_M,
+    side = need.side
+    left = side > 0 and lane + 1 < network.lanes[edge] and not claimed(claims, av, edge, lane + 1, pos)
+    right = side < 0 and lane > 0 and not claimed(claims, av, edge, lane - 1, pos)
+    return {
+        "N": side != 0,
+        "W": not need.urgent,
         "L": left and _gap_ok(read, av, +1, speed),
         "R": right and _gap_ok(read, av, -1, speed),
     }
-    return inputs, direction

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import sqlite3
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -106,6 +107,38 @@ def _table(report: str, heading: str) -> list[list[str]]:
     return [[cell.strip() for cell in row.strip("|").split("|")] for row in rows]
 
 
+def _check_loop_sections(db: Path, report: str) -> None:
+    """The report's transition coverage, shadow mode and safety tables against the database's rows."""
+    fired: Counter[tuple[str, str]] = Counter()
+    for r in _records(db, "transitions"):
+        fired[(label(r["controller"]), r["transition"])] += r["fired"]
+    machine, seen = "", 0
+    for line in report.split("## Transition coverage", 1)[1].split("\n## ", 1)[0].splitlines():
+        if line.startswith("**"):
+            machine = line[2:].split("**")[0]
+        elif line.startswith("| `"):
+            cells = [c.strip() for c in line.strip("|").split("|")]
+            assert int(cells[2]) == fired[(machine, cells[0].strip("`"))], (machine, cells)
+            seen += 1
+    assert seen == len(fired) > 0
+    with ResultsDB.open_for_reading(db) as results:  # what the evidence of MLCA-T reads
+        counts = results.transition_counts(("mlca_t-py", "mlca_t-c"))
+    assert counts == {tid: n for (name, tid), n in fired.items() if name == "MLCA-T"}
+    assert counts["urgent_left"] >= 2 * (1 + 3)  # every AV merged: an urgent need to the left, taken
+    for name, avs, av_runs, wishes, *_ in (r for r in _table(report, "Shadow mode") if len(r) == 10):
+        group = _where(db, "av_metrics", {label(c): c for c in SETUPS}[name], int(avs))
+        assert (int(av_runs), int(wishes)) == (len(group), sum(m["wishes"] for m in group))
+        assert int(wishes) == len(_where(db, "episodes", group[0]["controller"], int(avs)))
+    rows = _table(report, "Safety beside collisions")
+    assert len(rows) == 2 * len(PAPER_MATRIX)
+    for name, avs, changes, unsafe, *_ in rows:
+        group = _where(db, "av_metrics", {label(c): c for c in SETUPS}[name], int(avs))
+        assert int(changes) == sum(m["lc_20km"] for m in group)
+        assert int(unsafe.split()[0]) == sum(m["lc_rss_unsafe"] for m in group)
+        if name == "MLCA-T":
+            assert unsafe.startswith("0 ")  # MLCA-T changes lane only into gaps that are safe by RSS
+
+
 @pytest.mark.slow
 def test_report_tables_match_the_database(matrix_db: Path, tmp_path: Path) -> None:
     written = write_report(matrix_db, tmp_path / "a")
@@ -135,6 +168,7 @@ def test_report_tables_match_the_database(matrix_db: Path, tmp_path: Path) -> No
         group = _where(matrix_db, "av_metrics", by_label[name], int(avs))
         expected = (len(group), sum(m["needs"] for m in group), sum(m["needs_open"] for m in group))
         assert (int(av_runs), int(episodes), int(never.split()[0])) == expected
+    _check_loop_sections(matrix_db, report)
     claims = _table(report, "Claims")
     assert len(claims) == sum(len(c.avs) if c.kind == "reduction" and c.metric == "lc" else 1 for c in CLAIMS)
     assert all(re.fullmatch(r"\*\*(reproduced|not reproduced|not comparable)\*\*", row[3]) for row in claims)

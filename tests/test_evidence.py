@@ -20,7 +20,7 @@ from playwright.sync_api import sync_playwright
 
 from mlca_verify.cli import main
 from mlca_verify.conform.data import DATA_CHECKS
-from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns
+from mlca_verify.evidence import ClosedLoopRuns
 from mlca_verify.evidence.collect import closed_loop
 from mlca_verify.model import show
 from mlca_verify.spec import load_spec
@@ -167,6 +167,13 @@ def test_the_closed_loop_section_is_made_from_the_runs_given(tmp_path: Path) -> 
         "failed_runs": 1, "monitor_violations": 0, "detail": "9 closed-loop runs of mlca, 1 failed, 0 monitor violations",
     })  # fmt: skip
     assert closed_loop(ClosedLoopRuns(db, 2, 0, 0), "mlca")["status"] == "ok"
+    covered = closed_loop(ClosedLoopRuns(db, 2, 0, 0, {"reset": 40, "go": 3}), "m", ("reset", "go", "back"))
+    assert covered["transitions"] == [
+        {"transition": "reset", "fired": 40},
+        {"transition": "go", "fired": 3},
+        {"transition": "back", "fired": 0},
+    ]
+    assert covered["coverage"] == "2 of 3 transitions fired in traffic (never: back)"
     assert closed_loop(None, "mlca") == {"status": "undeveloped", "detail": "no results database given (--db)"}
 
 
@@ -275,7 +282,7 @@ def test_data_machine_bundle_packages_its_generated_code(data_bundles: tuple[Pat
     nodes = {n["id"]: n for n in doc["argument"]}
     assert nodes["G4"]["ok"] is True and nodes["G5"]["ok"] is True and nodes["G6"]["ok"] is True
     assert [n["text"].split(":")[0] for n in doc["argument"] if n["parent"] == "S5"] == list(DATA_CHECKS)
-    assert nodes["G7"]["type"] == "undeveloped" and "does not drive" in nodes["G7"]["text"]
+    assert nodes["G7"]["type"] == "undeveloped" and "no results database given" in nodes["G7"]["text"]
 
 
 def test_data_machine_bundle_has_the_physical_safety_section(data_bundles: tuple[Path, Path]) -> None:
@@ -438,12 +445,12 @@ cite = {hostile}
 
 
 @pytest.mark.usefixtures("at_root")
-def test_a_data_machine_with_a_results_database_is_refused_before_the_proofs(
+def test_a_data_machines_results_database_is_read_before_the_proofs(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     db = tmp_path / "results.sqlite"
     db.write_bytes(b"")
     assert main(["evidence", MLCA_T, "--db", str(db), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert err == f"{db}: error: {NO_DATA_LOOP}\n"
+    assert err == f"{db}: error: not a results database of mlca-sim\n"
     assert not (tmp_path / "out" / "evidence.json").exists()

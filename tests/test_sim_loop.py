@@ -22,7 +22,7 @@ from tests.sim_helpers import SHORT
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("machine", ["mlca", "mlca_r"])
+@pytest.mark.parametrize("machine", ["mlca", "mlca_r", "mlca_t"])
 def test_python_and_c_controllers_drive_identically(machine: str, tmp_path: Path) -> None:
     scenario = load_scenario(SHORT).with_avs(3)
     py = run_once(scenario, f"{machine}-py", 4, tmp_path)
@@ -30,6 +30,8 @@ def test_python_and_c_controllers_drive_identically(machine: str, tmp_path: Path
     assert py.status == c.status == "done"
     assert py.trajectory_sha256 == c.trajectory_sha256
     assert [m.row() for m in py.metrics] == [m.row() for m in c.metrics]
+    assert [m.transitions for m in py.metrics] == [m.transitions for m in c.metrics]
+    assert [m.episodes for m in py.metrics] == [m.episodes for m in c.metrics]
     assert py.violations == c.violations == []
     assert all(m.row()["arrived"] and m.row()["lc_5km"] >= 1 for m in py.metrics)  # every AV merged
 

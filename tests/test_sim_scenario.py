@@ -31,7 +31,7 @@ def test_openstreetmap_road_is_imported_and_driven(tmp_path: Path) -> None:
     scenario_file = tmp_path / "osm.toml"
     osm = ROOT / "tests" / "fixtures" / "small.osm"
     scenario_file.write_text(
-        f'[road]\nosm = "{osm}"\nroute = "100 101"\nlanes = 3\n\n[traffic]\ncars = 10\navs = 1\ndepart_window_s = 20\n'
+        f'[road]\nosm = "{osm}"\nroute = "100 101"\nlanes = 3\n\n[traffic]\ncars = 10\navs = 1\ndepart_window_s = 20\nneed = "middle"\n'
     )
     result = run_once(load_scenario(scenario_file), "mlca_r-c", 3, tmp_path / "work")
     assert result.status == "done" and result.violations == []

@@ -24,7 +24,7 @@ from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
-from mlca_verify.evidence import NO_DATA_LOOP, ClosedLoopRuns, check_replay, collect, loop_controllers, write_bundle
+from mlca_verify.evidence import ClosedLoopRuns, check_replay, collect, loop_controllers, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.logic import check_all, compare
@@ -363,8 +363,6 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         raise UsageError(f"{db}: error: results database not found")
     writable_folder(Path(args.out))
     spec = load_spec(args.spec, confine=not args.allow_outside)
-    if spec.machine.has_data and db is not None:
-        raise UsageError(f"{db}: error: {NO_DATA_LOOP}")
     work = "proofs, conformance (Frama-C takes a few seconds), readings"
     if spec.machine.has_data:
         work = "proofs, conformance (Frama-C WP takes about a minute), readings"
@@ -380,7 +378,8 @@ def cmd_evidence(args: argparse.Namespace) -> int:
             ) from None
         with ResultsDB.open_for_reading(db) as results:
             summary = results.monitor_summary(loop_controllers(spec))
-        runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations)
+            fired = results.transition_counts(loop_controllers(spec))
+        runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations, fired)
     replay = _replay(Path(args.replay)) if args.replay else None
     ev = collect(spec, readings, Path(args.generated), runs, evidence_now(), replay=replay)
     for path in write_bundle(ev, Path(args.out)):

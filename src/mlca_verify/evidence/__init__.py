@@ -7,13 +7,12 @@ import json
 import os
 from pathlib import Path
 
-from mlca_verify.evidence.collect import NO_DATA_LOOP, ClosedLoopRuns, Evidence, collect, loop_controllers
+from mlca_verify.evidence.collect import ClosedLoopRuns, Evidence, collect, loop_controllers
 from mlca_verify.evidence.page import render_page
 from mlca_verify.evidence.physics import check_replay
 from mlca_verify.files import write_atomic
 
 __all__ = [
-    "NO_DATA_LOOP",
     "ClosedLoopRuns",
     "Evidence",
     "check_replay",

@@ -42,7 +42,6 @@ from mlca_verify.spec.types import show_unit
 from mlca_verify.targets import FILES, Layout
 from mlca_verify.tools import run
 
-NO_DATA_LOOP = "the closed loop does not drive the generated code of a machine with data yet"
 TOOL_VERSIONS = {
     "gcc": ["gcc", "--version"],
     "frama-c": ["frama-c", "-version"],
@@ -81,6 +80,7 @@ class ClosedLoopRuns:
     runs: int
     failed_runs: int
     monitor_violations: int
+    transitions: dict[str, int] = field(default_factory=dict)  # times each transition fired (schema 3 and on)
 
 
 def loop_controllers(spec: LoadedSpec) -> tuple[str, str]:
@@ -124,14 +124,9 @@ def collect(
     results database given) and the SUMO `replay` of its lemmas' counterexamples (checked by
     `physics.check_replay`), read beforehand."""
     loaded_readings = [load_spec(p, compare=False) for p in readings]
-    if spec.machine.has_data:
-        if runs is not None:
-            raise ValueError(f"closed-loop runs drive generated code; {NO_DATA_LOOP}")
-        loop = {"status": "undeveloped", "detail": f"no closed-loop runs: {NO_DATA_LOOP}"}
-        checks = list(DATA_CHECKS)
-    else:
-        loop = closed_loop(runs, spec.machine.name.lower())  # every input read before the long work starts
-        checks = list(CHECKS)
+    transitions = tuple(t.id for t in spec.machine.transitions)
+    loop = closed_loop(runs, spec.machine.name.lower(), transitions)  # every input read before the long work
+    checks = list(DATA_CHECKS if spec.machine.has_data else CHECKS)
     results = check_all(spec.machine)
     outcomes = conform(spec, generated, checks, lambda _: None).outcomes
     ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, replay=replay)
@@ -215,9 +210,9 @@ def artifacts(ev: Evidence) -> list[dict[str, str]]:
     return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generated_files(ev).items()]
 
 
-def closed_loop(runs: ClosedLoopRuns | None, module: str) -> dict[str, Any]:
-    """The closed-loop section: monitor results of this machine's runs, and the hash of the database they are
-    from."""
+def closed_loop(runs: ClosedLoopRuns | None, module: str, transitions: tuple[str, ...] = ()) -> dict[str, Any]:
+    """The closed-loop section: monitor results of this machine's runs, the hash of the database they are from,
+    and (where the database records it) how often each of the spec's `transitions` fired in traffic."""
     if runs is None:
         return {"status": "undeveloped", "detail": "no results database given (--db)"}
     ok = runs.runs and runs.monitor_violations == 0 and runs.failed_runs == 0
@@ -225,7 +220,7 @@ def closed_loop(runs: ClosedLoopRuns | None, module: str) -> dict[str, Any]:
         f"{runs.runs} closed-loop runs of {module}, {runs.failed_runs} failed, {runs.monitor_violations} monitor "
         "violations"
     )
-    return {
+    section: dict[str, Any] = {
         "status": "ok" if ok else "failed",
         "db": runs.db.as_posix(),
         "sha256": sha256(runs.db),
@@ -234,6 +229,14 @@ def closed_loop(runs: ClosedLoopRuns | None, module: str) -> dict[str, Any]:
         "monitor_violations": runs.monitor_violations,
         "detail": detail,
     }
+    if runs.transitions:
+        fired = [{"transition": t, "fired": runs.transitions.get(t, 0)} for t in transitions]
+        never = [t for t in transitions if not runs.transitions.get(t, 0)]
+        section["transitions"] = fired
+        section["coverage"] = f"{len(fired) - len(never)} of {len(fired)} transitions fired in traffic" + (
+            f" (never: {', '.join(never)})" if never else ""
+        )
+    return section
 
 
 # --- a machine with data: its params, signals, variables, definitions, outputs and assumptions ---------------
@@ -495,6 +498,8 @@ def loop_goal(node: Callable[..., None], loop: dict[str, Any], number: int, reas
     ok = loop["status"] == "ok"
     node(f"G{number}", "goal", "Closed-loop runs in traffic show no runtime-monitor violation", "S1", ok)
     node(f"Sn{number}.1", "solution", loop["detail"], f"G{number}", ok, link="#closed-loop")
+    if "coverage" in loop:
+        node(f"C{number}.1", "context", loop["coverage"], f"G{number}", link="#closed-loop")
 
 
 def argument(ev: Evidence) -> list[dict[str, Any]]:
@@ -591,7 +596,7 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
                 "G3",
             )
     code_goals(node, ev.outcomes, DATA_CHECKS, 4)
-    loop_goal(node, ev.loop, 7, NO_DATA_LOOP)
+    loop_goal(node, ev.loop, 7, "no results database given")
     if ev.physics:
         physics_goal(node, ev, 8)
     return nodes
