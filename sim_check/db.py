@@ -255,7 +255,7 @@ def _check(conn: sqlite3.Connection, path: Path, app: int, version: int, tables:
         raise UsageError(
             f"{path}: error: not a results database of mlca-sim (its tables: {names}); give a new file to --db"
         )
-    _columns(conn, path, tables & {"runs", "av_metrics"}, COLUMNS_2)
+    _columns(conn, path, tables & {"runs", "av_metrics"}, COLUMNS_2, prefix=True)
     version = version if app else 1
     schemas = f"results schema {version}, this one writes {SCHEMA_VERSION}"
     if version < SCHEMA_VERSION:
@@ -271,14 +271,19 @@ def _check(conn: sqlite3.Connection, path: Path, app: int, version: int, tables:
 
 
 def _columns(
-    conn: sqlite3.Connection, path: Path, tables: Iterable[str], wanted: dict[str, tuple[str, ...]] = COLUMNS
+    conn: sqlite3.Connection,
+    path: Path,
+    tables: Iterable[str],
+    wanted: dict[str, tuple[str, ...]] = COLUMNS,
+    *,
+    prefix: bool = False,
 ) -> None:
-    """Refuse a table whose columns are not `wanted`'s, or (`wanted` being COLUMNS_2, what every version has)
-    do not begin with them."""
+    """Refuse a table whose columns are not `wanted`'s, or with `prefix` (what every version has, COLUMNS_2) do
+    not begin with them."""
     for table in sorted(tables):
         have = [r[1] for r in conn.execute(f"PRAGMA table_info({table})")]
         expected = list(wanted[table])
-        if have != expected and (wanted is COLUMNS or have[: len(expected)] != expected):
+        if have[: len(expected) if prefix else None] != expected:
             missing = sorted(set(expected) - set(have))
             raise UsageError(
                 f"{path}: error: table {table} has other columns than this version writes "
@@ -515,10 +520,6 @@ LOOP_QUERIES = {
         f" MIN(m.ssm_min_pet_s), AVG(r.density_veh_km_lane) FROM av_metrics m {DONE}"
         " AND m.lc_rss_unsafe IS NOT NULL GROUP BY m.controller, m.avs ORDER BY m.controller, m.avs"
     ),
-    "states": (
-        f"SELECT m.controller, {', '.join(f'SUM(m.{state.lower()}_s)' for state in STATES)} FROM av_metrics m {DONE}"
-        " AND m.wishes IS NOT NULL GROUP BY m.controller ORDER BY m.controller"
-    ),
     "wishes": (
         f"SELECT e.controller, e.side, e.urgent, e.reason, COUNT(*) FROM episodes e {DONE}"
         " GROUP BY e.controller, e.side, e.urgent, e.reason ORDER BY e.controller, e.side, e.urgent, e.reason"
@@ -532,13 +533,11 @@ class LoopRows:
     LOOP_QUERIES (empty for a database of schema 2): per controller each transition, the times it fired and the
     runs it fired in; per (controller, AVs) the AV runs and the shadow mode's sums (SHADOW); per (controller, AVs)
     the lane changes, those into a gap shorter than RSS's, the smallest gaps at a change, SSM's conflicts and
-    extremes, the mean density; per controller the seconds its AVs spent in each state of STATES, and the wish
-    episodes by side, urgency and reason."""
+    extremes, the mean density; per controller the wish episodes by side, urgency and reason."""
 
     transitions: list[tuple[Any, ...]] = field(default_factory=list)
     shadow: list[tuple[Any, ...]] = field(default_factory=list)
     safety: list[tuple[Any, ...]] = field(default_factory=list)
-    states: list[tuple[Any, ...]] = field(default_factory=list)
     wishes: list[tuple[Any, ...]] = field(default_factory=list)
 
 
@@ -580,7 +579,7 @@ class TableRows:
 
 
 def _report_rows(conn: sqlite3.Connection, path: Path) -> ReportRows:
-    _columns(conn, path, _tables(conn) & {"runs", "av_metrics"}, COLUMNS_2)
+    _columns(conn, path, _tables(conn) & {"runs", "av_metrics"}, COLUMNS_2, prefix=True)
     statuses = [RunStatus(*row) for row in conn.execute(REPORT_STATUSES)]
     finished = [_run_totals(row) for row in conn.execute(REPORT_FINISHED)]
     mechanism = [_mechanism_totals(row) for row in conn.execute(REPORT_MECHANISM)]

@@ -13,7 +13,7 @@ from mlca_verify.model import Machine, show
 from mlca_verify.spec import load_spec
 from sim_check.controllers import ROOT, SETUPS
 from sim_check.db import LoopRows
-from sim_check.results import SHADOW, SIDES, STATES
+from sim_check.results import SHADOW, SIDES
 
 SIDE_NAMES = {1: "left", -1: "right"}
 
@@ -36,13 +36,13 @@ def target_side(machine: Machine, tid: str) -> int:
     return SIDES.get(transition.target, 0)
 
 
-def coverage(rows: LoopRows) -> list[dict[str, Any]]:
+def coverage(rows: LoopRows, seconds: dict[str, dict[str, float]]) -> list[dict[str, Any]]:
     """Per generated controller: each transition in the spec's order, its guard, how often it fired and in how
-    many runs, and for one that never fired, the wish episodes towards its side (why it did not)."""
+    many runs, and for one that never fired, the wish episodes towards its side or the seconds (`seconds`, by
+    controller and state) its AVs spent in the states it leaves (why it did not)."""
     wishes: dict[str, dict[tuple[int, bool], int]] = defaultdict(lambda: defaultdict(int))
     for controller, side, urgent, _reason, count in rows.wishes:
         wishes[controller][(side, bool(urgent))] += count
-    seconds = {controller: dict(zip(STATES, times, strict=True)) for controller, *times in rows.states}
     by_controller: dict[str, dict[str, tuple[int, int]]] = defaultdict(dict)
     for controller, tid, fired, runs in rows.transitions:
         by_controller[controller][tid] = (int(fired), int(runs))
@@ -69,9 +69,7 @@ def coverage(rows: LoopRows) -> list[dict[str, Any]]:
     return result
 
 
-def _why(
-    machine: Machine | None, tid: str, wishes: dict[tuple[int, bool], int], seconds: dict[str, float | None]
-) -> str:
+def _why(machine: Machine | None, tid: str, wishes: dict[tuple[int, bool], int], seconds: dict[str, float]) -> str:
     """Why transition `tid` never fired: the wish episodes towards its side, or the time the machines spent in
     the states it leaves."""
     if machine is None:
@@ -79,7 +77,7 @@ def _why(
     side = target_side(machine, tid)
     if side == 0:
         sources = next(t.sources for t in machine.transitions if t.id == tid) or machine.states
-        spent = "; ".join(f"{s} {seconds.get(s) or 0.0:.1f} s" for s in sources)
+        spent = "; ".join(f"{s} {seconds.get(s, 0.0):.1f} s" for s in sources)
         return f"its guard was never true in {', '.join(sources)} in these runs (time the AVs spent there: {spent})"
     towards = wishes.get((side, False), 0) + wishes.get((side, True), 0)
     urgent = wishes.get((side, True), 0)

@@ -40,7 +40,6 @@ class Reads:
         self.collisions = bind("simulation", "getCollisions")
         self.road = bind("vehicle", "getRoadID")
         self.lane = bind("vehicle", "getLaneIndex")
-        self.lane_id = bind("vehicle", "getLaneID")
         self.position = bind("vehicle", "getLanePosition")
         self.distance = bind("vehicle", "getDistance")
         self.acceleration = bind("vehicle", "getAcceleration")

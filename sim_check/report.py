@@ -396,6 +396,17 @@ def _mechanism_rows(data: Data) -> list[dict[str, object]]:
     return rows
 
 
+def _state_seconds(data: Data) -> dict[str, dict[str, float]]:
+    """The seconds the AVs of each controller spent in each state of its machine, over all its runs (the
+    mechanism's sums, one and three AVs together)."""
+    seconds: dict[str, dict[str, float]] = defaultdict(lambda: dict.fromkeys(STATES, 0.0))
+    for (controller, _avs), g in data.groups.items():
+        if g.av_count:
+            for state, s in g.state_s.items():
+                seconds[controller][state] += s
+    return seconds
+
+
 def _cost_rows(data: Data) -> list[Row]:
     """controller, AVs, AV travel time s, AV and other traffic mean speed km/h (means with 95% CIs)."""
     rows: list[Row] = []
@@ -425,7 +436,7 @@ def markdown(data: Data, figures: list[Path]) -> str:
         "states": STATES,
         "mechanism": _mechanism_rows(data),
         "cost": _cost_rows(data),
-        "coverage": loop_report.coverage(data.loop),
+        "coverage": loop_report.coverage(data.loop, _state_seconds(data)),
         "shadow": loop_report.shadow(data.loop),
         "wish_reasons": loop_report.wish_reasons(data.loop),
         "safety": loop_report.safety(data.loop),

@@ -42,7 +42,7 @@ from sim_check.need import URGENT_M, Need, middle_goal, sumo_wish
 from sim_check.reads import Leader, Reads
 from sim_check.results import SIDES, AvMetrics, Episode, RunResult, Violation
 from sim_check.scenario import Scenario, build, sumo_command
-from sim_check.sensing import LaneClaim, Network, claimed, decides_on, sense
+from sim_check.sensing import LaneClaim, Network, claimed, sense
 from sim_check.signals import UNSENSED, signals
 
 EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
@@ -115,11 +115,8 @@ class ClosedLoop:
         self.safe_bits = sum(1 << (DEFS_SHIFT + k) for k, name in enumerate(flags) if name in ("L", "R"))
         # the side each state of the machine moves to: +1 left, -1 right, 0 none
         self.sides = tuple(SIDES.get(s, 0) for s in states)
-        self.decide = {"without": self.decide_sensed, "mobil": self.decide_mobil}.get(setup.kind)
-        if self.ctrl is not None:
-            self.decide = self.decide_sensed
-        if self.data is not None:
-            self.decide = self.decide_data
+        deciders = {"without": self.decide_sensed, "mobil": self.decide_mobil}
+        self.decide = self.decide_data if self.data else self.decide_sensed if self.ctrl else deciders.get(setup.kind)
         self.scenario = scenario
         self.target = scenario.target_lane
         self.sumo_need = scenario.traffic.need == "sumo"
@@ -231,8 +228,8 @@ class ClosedLoop:
     def drive(self, av: Driving, t: float, claims: list[LaneClaim]) -> float:
         """One step of one AV: observe it (its metrics), and let its controller decide. Returns its speed."""
         read, m, vid = self.read, av.m, av.id
-        lane_id = read.lane_id(vid)
         edge, lane, pos = read.road(vid), read.lane(vid), read.position(vid)
+        lane_id = f"{edge}_{lane}" if edge else ""  # SUMO names a lane <edge>_<index>: no getter more a step
         m.distance_m = read.distance(vid)
         if lane_id != av.lane_id:
             self.moved_on(av, t, lane_id, edge, lane)
@@ -255,7 +252,8 @@ class ClosedLoop:
         if ahead or behind or av.close:
             self.contacts(av, ahead, behind)
         self.trail.append((vid, edge, lane, pos))
-        if self.decide is not None and decides_on(edge):
+        # lane decisions are made off the ramp (one lane) and outside junctions: tested inline, on the hot path
+        if self.decide is not None and edge != "ramp" and edge[:1] != ":":
             self.decide(av, t, claims, (edge, lane, pos), leader=leader, speed=speed)
         return speed
 

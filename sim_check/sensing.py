@@ -36,11 +36,6 @@ class LaneClaim:
     pos: float
 
 
-def decides_on(edge: str) -> bool:
-    """Whether an AV makes lane decisions on `edge`: not on the ramp (one lane), not inside a junction."""
-    return edge != "ramp" and not edge.startswith(":")
-
-
 class LaneCounts(dict[str, int]):
     """Lane counts by edge, each read from SUMO the first time it is asked for (a hit costs no Python call)."""
 

@@ -65,6 +65,7 @@ def test_the_loops_bound_reads_give_what_libsumos_methods_give(tmp_path: Path) -
                 seen.add(av)
                 edge, lane = read.road(av), read.lane(av)
                 assert (edge, lane) == (v.getRoadID(av), v.getLaneIndex(av))
+                assert f"{edge}_{lane}" == v.getLaneID(av)  # the loop's lane id, made from these two
                 assert read.position(av) == v.getLanePosition(av) and read.distance(av) == v.getDistance(av)
                 assert read.speed(av) == v.getSpeed(av) and read.acceleration(av) == v.getAcceleration(av)
                 assert read.leader(av, 250.0) == (v.getLeader(av, 250.0) or ("", -1.0))
