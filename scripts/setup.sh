@@ -10,9 +10,12 @@ PYTHON=${PYTHON:-python3}
 # only where it lacks its C headers):
 # a C compiler with sanitizers, Frama-C with WP, Why3 and z3 (the prover WP calls), cppcheck (with its MISRA
 # addon), the Cortex-M cross compiler with its C library, valgrind for the benchmarks, Graphviz for SVG
-# diagrams, Chromium for the evidence page's browser test, and the X11 and GL libraries libsumo and SUMO load.
+# diagrams, Chromium for the evidence page's browser test, the X11 and GL libraries libsumo and SUMO load, clang 19
+# with LLVM's coverage tools and profile runtime (source-based coverage with MC/DC of the generated C), and QEMU's
+# Arm system emulator (the generated tests on a Cortex-M4).
 SYSTEM_PACKAGES=(gcc libc6-dev frama-c-base why3 z3 cppcheck gcc-arm-none-eabi libnewlib-arm-none-eabi valgrind
-                 graphviz chromium libx11-6 libxext6 libxrender1 libgl1)
+                 graphviz chromium libx11-6 libxext6 libxrender1 libgl1
+                 clang-19 llvm-19 libclang-rt-19-dev qemu-system-arm)
 
 apt_install() {
     local sudo=""

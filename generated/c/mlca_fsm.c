@@ -224,7 +224,7 @@ bool mlca_state_valid(mlca_state_t s)
 bool mlca_invariants_hold(mlca_inputs_t in, mlca_state_t s)
 {
     bool hold = (s == MLCA_IDLE) || (s == MLCA_WAITING) || (s == MLCA_MOVING_LEFT) || (s == MLCA_MOVING_RIGHT);
-    hold = hold && ((s == MLCA_IDLE) || (s == MLCA_WAITING) || (s == MLCA_MOVING_LEFT) || (s == MLCA_MOVING_RIGHT)); /* A1: Alg. 1, l.29 (Assert 1) */
+    /* A1: Alg. 1, l.29 (Assert 1): holds of every state, which the check above decides */
     hold = hold && ((!(!in.N)) || (s == MLCA_IDLE)); /* A2: Alg. 1, l.30 (Assert 2) */
     hold = hold && ((!(s == MLCA_MOVING_LEFT)) || (in.N && in.L)); /* A3: Alg. 1, l.31 (Assert 3) */
     hold = hold && ((!(s == MLCA_MOVING_RIGHT)) || (in.N && in.R)); /* A4: Alg. 1, l.32 (Assert 4) */

@@ -165,8 +165,7 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @*/
 bool mlca_t_params_valid(const mlca_t_params_t *p)
 {
-    bool ok = true;
-    ok = ok && (1 <= p->T_MIN) && (p->T_MIN <= 100);
+    bool ok = (1 <= p->T_MIN) && (p->T_MIN <= 100);
     ok = ok && (1.0 <= p->MIN_GAP) && (p->MIN_GAP <= 10.0);
     ok = ok && (0.1 <= p->RHO) && (p->RHO <= 3.0);
     ok = ok && (0.0 <= p->ACCEL_MAX) && (p->ACCEL_MAX <= 10.0);

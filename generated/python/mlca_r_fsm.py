@@ -91,8 +91,7 @@ def check_invariants(inputs: Inputs, state: State) -> list[str]:
         failed.append("state-range")
         return failed
     # A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1))
-    if state not in (State.IDLE, State.WAITING, State.MOVING_LEFT, State.MOVING_RIGHT):
-        failed.append("A1")
+    # (holds of every state: the state check above decides it)
     # A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2))
     if not (inputs.N or state == State.IDLE):
         failed.append("A2")

@@ -80,8 +80,7 @@ class Params:
 
     def valid(self) -> bool:
         p = self
-        ok = True
-        ok = ok and (1 <= p.T_MIN) and (p.T_MIN <= 100)
+        ok = (1 <= p.T_MIN) and (p.T_MIN <= 100)
         ok = ok and (1.0 <= p.MIN_GAP) and (p.MIN_GAP <= 10.0)
         ok = ok and (0.1 <= p.RHO) and (p.RHO <= 3.0)
         ok = ok and (0.0 <= p.ACCEL_MAX) and (p.ACCEL_MAX <= 10.0)
@@ -120,10 +119,6 @@ def _min(r: float, a: float) -> float:
 
 def _max(r: float, a: float) -> float:
     return a if a > r else r
-
-
-def _abs(a: float) -> float:
-    return a if a >= 0 else -a
 
 
 def _div(a: float, b: float) -> float:

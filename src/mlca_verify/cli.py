@@ -38,6 +38,8 @@ from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec.meaning import WITHIN_LIMIT
+from mlca_verify.testgen.command import tests as run_tests
+from mlca_verify.testgen.suite import DEPTH, MAX_DEPTH
 from mlca_verify.tools import run
 
 __all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
@@ -98,6 +100,8 @@ def _parser() -> argparse.ArgumentParser:
     diagram.add_argument("--format", choices=[*FORMATS, "svg"], default="dot", help="output format (default dot)")
     diagram.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
 
+    _tests_parser(sub)
+
     evidence = sub.add_parser("evidence", help="write a self-contained safety-case bundle (evidence.json, index.html)")
     evidence.add_argument("spec", metavar="SPEC", help="the spec of the generated controller")
     evidence.add_argument("--out", required=True, metavar="DIR", help="output folder")
@@ -118,6 +122,20 @@ def _parser() -> argparse.ArgumentParser:
         "spec/paper/*.toml; for another spec: none)",
     )
     return parser
+
+
+def _tests_parser(sub: Any) -> None:
+    tests = sub.add_parser(
+        "tests",
+        help="generate requirements-based tests to MC/DC, measure their coverage of the generated code, and run "
+        "them on a Cortex-M4 under QEMU",
+    )
+    tests.add_argument("specs", nargs="+", metavar="SPEC", help="spec files")
+    tests.add_argument("--out", required=True, metavar="DIR", help="output folder (one subfolder per machine)")
+    tests.add_argument("--generated", default="generated", metavar="DIR", help="where the code is (default: generated)")
+    tests.add_argument("--depth", type=int, default=DEPTH, help=f"the longest run searched (default {DEPTH})")
+    tests.add_argument("--no-coverage", action="store_true", help="write and run the suite, measure nothing")
+    tests.add_argument("--no-target", action="store_true", help="do not run the suite on the Cortex-M4 under QEMU")
 
 
 def say(*parts: object, **options: Any) -> None:
@@ -334,6 +352,27 @@ def svg_of(dot_text: str) -> str:
     return ran.output
 
 
+def cmd_tests(args: argparse.Namespace) -> int:
+    if not 1 <= args.depth <= MAX_DEPTH:
+        raise UsageError(f"error: --depth must lie in [1, {MAX_DEPTH}], not {args.depth}")
+    specs = [load_spec(p, compare=False) for p in args.specs]
+    ok = True
+    for spec in specs:
+        say(f"{spec.path} ({spec.machine.name})", flush=True)
+        report = run_tests(
+            spec,
+            Path(args.out),
+            Path(args.generated),
+            measure=not args.no_coverage,
+            on_target=not args.no_target,
+            depth=args.depth,
+            say=lambda line: say(line, flush=True),
+        )
+        say(f"{spec.path}: {'every check passed' if report.ok else 'a check failed'}; written to {report.folder}\n")
+        ok = ok and report.ok
+    return EXIT_OK if ok else EXIT_FINDING
+
+
 def cmd_diagram(args: argparse.Namespace) -> int:
     machine = load_spec(args.spec, compare=False).machine
     if machine.has_data and args.format == "scxml":
@@ -411,6 +450,7 @@ COMMANDS = {
     "conform": cmd_conform,
     "diagram": cmd_diagram,
     "evidence": cmd_evidence,
+    "tests": cmd_tests,
 }
 
 

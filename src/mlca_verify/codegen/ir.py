@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from mlca_verify.codegen.simplify import fold, in_context
 from mlca_verify.errors import CodegenError
 from mlca_verify.logic.solver import Solver
-from mlca_verify.model import Expr, Machine, inputs_of
+from mlca_verify.model import Expr, Invariant, Machine, StateIn, inputs_of
 
 GENERATOR_NAME = "mlca-verify"
 
@@ -47,6 +47,7 @@ class InvariantIR:
     cite: str
     code: Expr  # the same expression with constant parts folded
     proved: bool  # expected to hold: stated as a contract on the step function, not only monitored
+    implied: bool = False  # `state in {every state}`: the monitor's state check already decides it
 
 
 @dataclass(frozen=True)
@@ -115,8 +116,11 @@ def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, r
         step_reads_inputs=any(inputs_of(b.code) for case in cases for b in case.branches),
         invariants_read_inputs=any(inputs_of(fold(i.expr, solver)) for i in machine.invariants),
         otherwise_cite=machine.cite,
-        invariants=tuple(
-            InvariantIR(i.id, i.expr, i.cite, fold(i.expr, solver), i.expect == "holds") for i in machine.invariants
-        ),
+        invariants=tuple(_invariant(i, fold(i.expr, solver), machine.states) for i in machine.invariants),
         reachable=reachable,
     )
+
+
+def _invariant(inv: Invariant, code: Expr, states: tuple[str, ...]) -> InvariantIR:
+    implied = isinstance(code, StateIn) and set(code.states) == set(states)
+    return InvariantIR(inv.id, inv.expr, inv.cite, code, inv.expect == "holds", implied)

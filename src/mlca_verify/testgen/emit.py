@@ -1,0 +1,202 @@
+"""The suite written out: a pytest module over the generated Python and a C program over the generated C, with
+the same runs, monitor calls and params checks and the spec's expected answers.
+
+The C program prints one line per step or call (the context, the outputs and the monitor's answer, reals as the
+16 hex digits of their binary64 bits), then `N passed, N failed`; the same source runs on the host and, built
+with MLCA_TARGET, on a Cortex-M4, so that the two outputs can be compared line for line."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+
+from mlca_verify.codegen.lower import real_literal
+from mlca_verify.codegen.render import Escaped, render_template
+from mlca_verify.model import Machine
+from mlca_verify.testgen.search import Pair
+from mlca_verify.testgen.suite import Case, MonitorCase, Suite
+
+
+@dataclass(frozen=True)
+class Header:
+    spec_path: str
+    sha256: str
+    module_path: str  # the generated Python, relative to the test file
+
+
+def py_value(value: object) -> str:
+    if isinstance(value, float):
+        return real_literal(Fraction(value))
+    return repr(value)
+
+
+def c_value(value: object, real: bool) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if real and isinstance(value, int | float):
+        return real_literal(Fraction(value))
+    return str(value)
+
+
+def _py_dict(values: Mapping[str, object]) -> Escaped:
+    return Escaped("{" + ", ".join(f"{k!r}: {py_value(v)}" for k, v in values.items()) + "}")
+
+
+def _types(m: Machine) -> dict[str, bool]:
+    """Which names hold reals."""
+    real = {s.name: s.type == "real" for s in m.signals}
+    real.update({v.name: v.type == "real" for v in m.variables})
+    real.update({o.name: o.type == "real" for o in m.outputs})
+    real.update({p.name: p.type == "real" for p in m.params})
+    return real
+
+
+def _c_struct(values: Mapping[str, object], real: dict[str, bool]) -> Escaped:
+    return Escaped("{" + ", ".join(f".{k} = {c_value(v, real.get(k, False))}" for k, v in values.items()) + "}")
+
+
+def python_suite(suite: Suite, header: Header) -> str:
+    m = suite.machine
+    runs = [_py_run(m, c) for c in suite.cases]
+    monitors = [_py_monitor(c) for c in suite.monitor]
+    params = [(Escaped(repr(p.name)), _py_dict(dict(p.values)), p.valid) for p in suite.params]
+    return render_template(
+        "mcdc_test.py.j2",
+        h=header,
+        m=m,
+        data=m.has_data,
+        runs=runs,
+        monitors=monitors,
+        params=params,
+        counts=_counts(suite),
+    )
+
+
+def _py_run(
+    m: Machine, case: Case
+) -> tuple[Escaped, Escaped, list[tuple[Escaped, Escaped, Escaped, Escaped, Escaped]]]:
+    steps = []
+    for inputs, e in zip(case.inputs, case.expected, strict=True):
+        variables = dict(zip((v.name for v in m.variables), e.variables, strict=True))
+        outputs = dict(zip((o.name for o in m.outputs), e.outputs, strict=True))
+        steps.append(
+            (
+                _py_dict(dict(inputs)),
+                Escaped(repr(e.state)),
+                _py_dict(variables),
+                _py_dict(outputs),
+                Escaped(repr(list(e.failing))),
+            )
+        )
+    start = Escaped("None") if case.start is None else _py_dict(dict(case.start))
+    return Escaped(repr(case.name)), start, steps
+
+
+def _py_monitor(case: MonitorCase) -> tuple[Escaped, ...]:
+    s = case.snapshot
+    return (
+        Escaped(repr(case.name)),
+        _py_dict(dict(s.before)),
+        _py_dict(dict(s.after)),
+        _py_dict(dict(s.inputs)),
+        _py_dict(dict(s.outputs)),
+        Escaped(repr(list(s.failing))),
+    )
+
+
+def _counts(suite: Suite) -> dict[str, int]:
+    return {
+        "runs": len(suite.cases),
+        "steps": sum(len(c.inputs) for c in suite.cases),
+        "monitor": len(suite.monitor),
+        "params": len(suite.params),
+        "objectives": len(suite.pairs),
+        "uncovered": len(suite.uncovered),
+    }
+
+
+def c_suite(suite: Suite, header: Header) -> str:
+    m = suite.machine
+    real = _types(m)
+    invariants = [i.id for i in m.invariants]
+    runs = []
+    for c in suite.cases:
+        steps = []
+        for inputs, e in zip(c.inputs, c.expected, strict=True):
+            variables = dict(zip((v.name for v in m.variables), e.variables, strict=True))
+            outputs = dict(zip((o.name for o in m.outputs), e.outputs, strict=True))
+            steps.append(
+                (
+                    _c_struct(dict(inputs), real),
+                    m.states.index(e.state),
+                    _c_struct(variables, real) if variables else Escaped("{0}"),
+                    _c_struct(outputs, real) if outputs else Escaped("{0}"),
+                    _mask(e.failing, invariants),
+                )
+            )
+        start = Escaped("{0}") if c.start is None else _c_struct(dict(c.start), real)
+        runs.append((c.name, c.start is not None, start, steps))
+    monitors = [_c_monitor(c, real, invariants) for c in suite.monitor]
+    params = [(p.name, _c_struct(dict(p.values), real), p.valid) for p in suite.params]
+    return render_template(
+        "mcdc_runner.c.j2",
+        h=header,
+        m=m,
+        data=m.has_data,
+        module=m.name.lower(),
+        macro=m.name.upper(),
+        runs=runs,
+        monitors=monitors,
+        params=params,
+        real=real,
+        counts=_counts(suite),
+    )
+
+
+def _mask(failing: Sequence[str], invariants: list[str]) -> str:
+    bits = 0
+    for name in failing:
+        if name in invariants:
+            bits |= 1 << invariants.index(name)
+    return f"0x{bits:x}u"
+
+
+def _c_monitor(case: MonitorCase, real: dict[str, bool], invariants: list[str]) -> tuple[object, ...]:
+    s = case.snapshot
+    return (
+        case.name,
+        _c_struct(dict(s.before), real),
+        _c_struct(dict(s.after), real),
+        _c_struct(dict(s.inputs), real),
+        _c_struct(dict(s.outputs), real) if s.outputs else Escaped("{0}"),
+        _mask(s.failing, invariants),
+        int(s.after["mode"]),
+    )
+
+
+def objectives_json(suite: Suite, header: Header) -> str:
+    """Every objective with the tests that cover it, or the reason none can."""
+    rows = [_objective_row(p) for p in suite.pairs]
+    doc = {
+        "spec": header.spec_path,
+        "sha256": header.sha256,
+        "depth": suite.depth,
+        "counts": _counts(suite),
+        "objectives": rows,
+    }
+    return json.dumps(doc, indent=1, sort_keys=True) + "\n"
+
+
+def _objective_row(p: Pair) -> dict[str, object]:
+    o = p.objective
+    return {
+        "id": o.id,
+        "decision": o.decision.id,
+        "kind": o.decision.kind,
+        "condition": o.label,
+        "form": p.form,
+        "reason": p.reason,
+        "cite": o.decision.cite,
+    }

@@ -1,0 +1,82 @@
+"""Why the code keeps a gap the suite cannot close: each uncovered line, branch or MC/DC condition of the
+generated code is traced to the spec element its line implements (the generated code names it in a comment or a
+docstring), and given the reasons z3 found for that element's conditions without a pair."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+
+from mlca_verify.model import Machine
+from mlca_verify.testgen.measure import Gap
+from mlca_verify.testgen.search import Pair
+
+DIVISION = (
+    "a division by zero, which the spec's divisors never are for params within their ranges (the division "
+    "checks of `mlca-verify check` prove it)"
+)
+_C_TAG = re.compile(r"/\* ([A-Za-z0-9_.-]+): ")
+_PY_TAG = re.compile(r"(?:# |\"\"\")([A-Za-z0-9_.-]+): ")
+_APPEND = re.compile(r"\.append\(\"([A-Za-z0-9_.-]+)\"\)")
+LOOK_BACK = 3  # lines above a gap searched for the comment naming its element
+
+
+def element_of(lines: Sequence[str], line: int, known: set[str]) -> str | None:
+    """The spec element named on the gap's line, in a comment just above it, or by the monitor's verdict on the
+    line below."""
+    for k in (line - 1, line):  # the verdict on the gap's own line, or on the line below it
+        verdict = _APPEND.search(lines[k]) if k < len(lines) else None
+        if verdict and verdict.group(1) in known:
+            return verdict.group(1)
+    for k in range(line - 1, max(line - 1 - LOOK_BACK, -1), -1):
+        text = lines[k]
+        for match in (*_C_TAG.finditer(text), *_PY_TAG.finditer(text)):
+            if match.group(1) in known:
+                return match.group(1)
+        if k < line - 1 and not text.strip().startswith(("#", "/*", "*")):
+            break
+    return None
+
+
+def in_function(lines: Sequence[str], line: int, names: tuple[str, ...]) -> bool:
+    for k in range(line - 1, -1, -1):
+        text = lines[k]
+        if text.startswith(("def ", "static ", "bool ", "void ", "int ")):
+            return any(n in text.split("(")[0] for n in names)
+    return False
+
+
+def reasons_for(element: str, pairs: Sequence[Pair], language: str, has_data: bool) -> list[str]:
+    """The reasons of the element's conditions without a pair, the decisions the code's language evaluates."""
+    prefixes = ["guard:", "def:", "valid:", "choice:", "output:"]
+    if language == "c" and not has_data:
+        prefixes.append("chain:")
+    else:
+        prefixes.append("inv:")
+    found: list[str] = []
+    for p in pairs:
+        d = p.objective.decision
+        name = d.id.split(":")[-1].split("#")[0]
+        if p.reason and name == element and any(d.id.startswith(x) for x in prefixes):
+            found.append(f"{p.objective.label}: {p.reason}")
+    return found
+
+
+def explain(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str) -> list[str]:
+    """A reason per gap ("" where none is known: a gap the suite should close)."""
+    lines = source.splitlines()
+    known = {t.id for t in machine.transitions} | {i.id for i in machine.invariants}
+    known |= {d.name for d in machine.definitions}
+    reasons = []
+    for gap in gaps:
+        element = element_of(lines, gap.line, known)
+        found = reasons_for(element, pairs, language, machine.has_data) if element else []
+        if not found and in_function(lines, gap.line, ("_div",)):
+            found = [DIVISION]
+        reasons.append(" | ".join(found))
+    return reasons
+
+
+def fill(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str) -> None:
+    for gap, reason in zip(gaps, explain(gaps, source, machine, pairs, language), strict=True):
+        gap.reason = reason

@@ -1,0 +1,195 @@
+"""The decisions of a machine and their conditions: what a requirements-based test suite must cover to MC/DC.
+
+A *decision* is a boolean expression the generated code branches on:
+- the guard of a transition in one of its source states, evaluated once the earlier guards of that state are
+  false (the code's `if / else if` chain, first match);
+- a boolean definition, with the range checks of the samples it reads when it has a fallback value;
+- the choice inside `min`, `max` and `abs`, and the condition of an `if then else`;
+- an invariant, as the monitor evaluates it after a step.
+
+A *condition* is one occurrence of an atom in a decision: a boolean input or definition, a comparison, a
+`state in {...}`, a `prev(...)`. MC/DC asks, for each condition, two test steps in which that condition changes,
+the decision's outcome changes, and every other condition either keeps its value (unique cause) or cannot
+change the outcome (masking).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Literal
+
+from mlca_verify.errors import Loc
+from mlca_verify.model import (
+    IN_MEMORY,
+    BinOp,
+    Call,
+    Cmp,
+    Const,
+    Expr,
+    Ite,
+    Machine,
+    Not,
+    Num,
+    StateIn,
+    Var,
+    children,
+    show,
+)
+
+Where = Literal["pre", "post"]  # over the frame before the step (guards, definitions) or after it (monitor, outputs)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One decision: `expr` over atoms, evaluated at `where`; `context` must hold for the code to evaluate it."""
+
+    id: str  # e.g. "guard:IDLE:urgent_left", "def:L", "max:reach_av#1", "inv:A3"
+    kind: Literal["guard", "definition", "choice", "invariant", "output"]
+    expr: Expr
+    where: Where
+    state: str | None = None  # a guard's source state
+    given: tuple[Expr, ...] = ()  # what holds whenever the code evaluates it (earlier guards false, samples valid)
+    cite: str = ""
+    loc: Loc = IN_MEMORY  # the spec element it comes from
+
+
+@dataclass(frozen=True)
+class Objective:
+    """MC/DC of one condition (the `index`-th atom occurrence) of one decision."""
+
+    decision: Decision
+    index: int
+    atom: Expr
+
+    @property
+    def id(self) -> str:
+        return f"{self.decision.id}#{self.index + 1}"
+
+    @property
+    def label(self) -> str:
+        return f"{show(self.atom)} in {self.decision.id}"
+
+
+def atoms(expr: Expr) -> list[Expr]:
+    """The condition occurrences of a decision, left to right; constants are not conditions."""
+    if isinstance(expr, Not):
+        return atoms(expr.arg)
+    if isinstance(expr, BinOp):
+        return atoms(expr.left) + atoms(expr.right)
+    if isinstance(expr, Const):
+        return []
+    return [expr]
+
+
+def validity(machine: Machine, signals: tuple[str, ...]) -> Expr | None:
+    """Every sample in its range, one comparison per end (the code checks each end apart)."""
+    parts: list[Expr] = []
+    by_name = {s.name: s for s in machine.signals}
+    for name in signals:
+        low, high = by_name[name].range
+        real = by_name[name].type == "real"
+        parts += [Cmp("<=", Num(low, real), Var(name)), Cmp("<=", Var(name), Num(high, real))]
+    if not parts:
+        return None
+    whole = parts[0]
+    for p in parts[1:]:
+        whole = BinOp("and", whole, p)
+    return whole
+
+
+def guard_decisions(machine: Machine) -> Iterator[Decision]:
+    for state in machine.states:
+        earlier: list[Expr] = []
+        for t in machine.outgoing(state):
+            yield Decision(f"guard:{state}:{t.id}", "guard", t.guard, "pre", state, tuple(earlier), t.cite, t.loc)
+            earlier.append(Not(t.guard))
+
+
+def definition_decisions(machine: Machine) -> Iterator[Decision]:
+    """A boolean definition's rule, and before it the range checks of its samples (the code evaluates the rule
+    only when they pass)."""
+    for d in machine.definitions:
+        if d.type != "bool":
+            continue
+        checks = validity(machine, d.signals)
+        if checks is not None:
+            yield Decision(f"valid:{d.name}", "definition", checks, "pre", cite=d.cite, loc=d.loc)
+        given = (checks,) if checks else ()
+        yield Decision(f"def:{d.name}", "definition", d.expr, "pre", given=given, cite=d.cite, loc=d.loc)
+
+
+def rule(machine: Machine, name: str) -> Expr:
+    """A boolean definition's value with its fallback: the rule when the samples are valid, else `if_invalid`."""
+    d = next(d for d in machine.definitions if d.name == name)
+    checks = validity(machine, d.signals)
+    if checks is None:
+        return d.expr
+    return BinOp("or", Not(checks), d.expr) if d.if_invalid else BinOp("and", checks, d.expr)
+
+
+def choice_decisions(machine: Machine) -> Iterator[Decision]:
+    """The branch inside each `min`/`max` of two arguments, `abs`, and `if then else`."""
+    roots: list[tuple[str, Expr, Where, Loc, str]] = [
+        (d.name, d.expr, "pre", d.loc, d.cite) for d in machine.definitions
+    ]
+    roots += [(f"every:{v.name}", v.every, "pre", v.loc, v.cite) for v in machine.variables if v.every is not None]
+    roots += [(f"out:{o.name}", o.expr, "post", o.loc, o.cite) for o in machine.outputs]
+    for name, root, where, loc, cite in roots:
+        for k, node in enumerate(_choices(root)):
+            kind: Literal["choice", "output"] = "output" if isinstance(node, Ite) else "choice"
+            yield Decision(f"{kind}:{name}#{k + 1}", kind, _choice_condition(node), where, cite=cite, loc=loc)
+
+
+def _choices(expr: Expr) -> list[Expr]:
+    found: list[Expr] = []
+    todo = [expr]
+    while todo:
+        node = todo.pop(0)
+        if isinstance(node, Ite) or (isinstance(node, Call) and node.fn in ("min", "max", "abs")):
+            found.append(node)
+        todo.extend(children(node))
+    return found
+
+
+def _choice_condition(node: Expr) -> Expr:
+    if isinstance(node, Ite):
+        return node.cond
+    assert isinstance(node, Call)
+    if node.fn == "abs":
+        return Cmp(">=", node.args[0], Num(Fraction(0), False))
+    first, second = node.args[0], node.args[1]
+    for extra in node.args[2:]:  # the code folds left: only the first choice is a decision of its own here
+        first = Call(node.fn, (first, second))
+        second = extra
+    return Cmp("<" if node.fn == "min" else ">", second, first)
+
+
+def invariant_decisions(machine: Machine) -> Iterator[Decision]:
+    """Each invariant on its own (the monitor of a machine with data, the Python monitor), and for a machine
+    without data each as the C monitor evaluates it: after the state check and the invariants before it, in
+    one `hold && ...` chain."""
+    for inv in machine.invariants:
+        yield Decision(f"inv:{inv.id}", "invariant", inv.expr, "post", cite=inv.cite, loc=inv.loc)
+    if machine.has_data:
+        return
+    given: list[Expr] = [StateIn(machine.states)]
+    for inv in machine.invariants:
+        if inv.expr == StateIn(machine.states):
+            continue
+        yield Decision(f"chain:{inv.id}", "invariant", inv.expr, "post", None, tuple(given), inv.cite, inv.loc)
+        given.append(inv.expr)
+
+
+def decisions(machine: Machine) -> list[Decision]:
+    return [
+        *guard_decisions(machine),
+        *definition_decisions(machine),
+        *choice_decisions(machine),
+        *invariant_decisions(machine),
+    ]
+
+
+def objectives(machine: Machine) -> list[Objective]:
+    return [Objective(d, k, a) for d in decisions(machine) for k, a in enumerate(atoms(d.expr))]

@@ -1,0 +1,202 @@
+"""A requirements-based test suite: the runs of the MC/DC pairs, each with what the spec says happens at every
+step (the mode, the variables, the outputs, the invariants that fail), answered by z3 on the spec's own step
+relation with every input fixed, never by the generated code."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+
+import z3
+
+from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, value_of
+from mlca_verify.model import Machine, prevs_of
+from mlca_verify.testgen.objectives import objectives
+from mlca_verify.testgen.search import Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
+
+DEPTH = 30  # the longest run searched
+MAX_DEPTH = 200  # the longest a user may ask for
+
+
+@dataclass(frozen=True)
+class Expected:
+    state: str
+    variables: tuple[int | float, ...]
+    outputs: tuple[int | float | bool, ...]
+    failing: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    inputs: tuple[Sample, ...]
+    expected: tuple[Expected, ...]
+    covers: tuple[str, ...]  # "objective-id:A" or ":B"
+    start: dict[str, bool | int | float] | None = None  # the context the run starts from (None: the initial one)
+
+
+@dataclass(frozen=True)
+class MonitorCase:
+    """A direct call of the monitor on a context the machine need not reach (an invariant at its boundary)."""
+
+    name: str
+    snapshot: Snapshot
+    covers: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ParamCase:
+    """Params with one value outside its range (or every default), and whether the code must call them valid."""
+
+    name: str
+    values: dict[str, int | float]
+    valid: bool
+
+
+@dataclass
+class Suite:
+    machine: Machine
+    cases: list[Case]
+    monitor: list[MonitorCase]
+    pairs: list[Pair]
+    params: list[ParamCase]
+    depth: int
+
+    @property
+    def uncovered(self) -> list[Pair]:
+        return [p for p in self.pairs if p.a is None or p.b is None]
+
+
+Start = dict[str, bool | int | float] | None
+Run = tuple[Start, list[Sample]]
+
+
+def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
+    """What the spec says of each run (from its start, or from the initial state), step by step: one step of
+    the spec's step relation at a time, with the context before it and its inputs fixed."""
+    prevs = prevs_of(*(i.expr for i in machine.invariants), *(o.expr for o in machine.outputs))
+    system = System(machine, prevs)
+    pre, i, post = system.frame("r0"), system.inputs("r0"), system.frame("r1")
+    link, terms = system.step(pre, i, post)
+    solver = z3.Solver()
+    solver.add(link)
+    initial = z3.Solver()
+    initial.add(system.init(pre))
+    initial.check()
+    first = frame_values(initial.model(), pre)
+    answers = []
+    for start, run in runs:
+        context = first if start is None else dict(start)
+        steps = []
+        for sample in run:
+            if solver.check(_start(system, pre, context), _fix(system, i, sample)) != z3.sat:
+                raise AssertionError(f"the spec has no step from {context} under {sample}")
+            model = solver.model()
+            steps.append(_expected(system, model, post, terms))
+            context = frame_values(model, post)
+        answers.append(steps)
+    return answers
+
+
+def _start(system: System, f: Frame, start: dict[str, bool | int | float]) -> z3.BoolRef:
+    parts = [f.mode == int(start["mode"]), f.first == bool(start["first"])]
+    parts += [f.variables[v.name] == value_of(Fraction(start[v.name]), v.type) for v in system.m.variables]
+    parts += [reg == start[f"prev{k}"] for k, reg in f.registers.items()]
+    return z3.And(*parts)
+
+
+def _fix(system: System, i: StepInputs, sample: Sample) -> z3.BoolRef:
+    parts = []
+    for name, value in sample.items():
+        if isinstance(value, bool):
+            parts.append(i.bools[name] == value)
+        else:
+            parts.append(i.signals[name] == _exact(system, name, value))
+    return z3.And(*parts)
+
+
+def _exact(system: System, name: str, value: int | float) -> z3.ExprRef:
+    signal = system.signals[name]
+    if isinstance(value, float) and not math.isfinite(value):
+        return value_of(signal.range[1] + 1, signal.type)
+    return value_of(Fraction(value), signal.type)
+
+
+def _expected(system: System, model: z3.ModelRef, post: Frame, terms: StepTerms) -> Expected:
+    m = system.m
+    mode = int(value_at(model, post.mode))
+    variables = tuple(value_at(model, post.variables[v.name]) for v in m.variables)
+    outputs = tuple(value_at(model, t) for t in system.outputs_at(terms.post).values())
+    failing = tuple(inv.id for inv in m.invariants if not value_at(model, system.ev(inv.expr, terms.post)))
+    return Expected(m.states[mode], variables, outputs, failing)
+
+
+def param_cases(machine: Machine) -> list[ParamCase]:
+    """The defaults, then each param just below and just above its range."""
+    defaults = {p.name: _param_value(p.default, p.type) for p in machine.params}
+    cases = [ParamCase("defaults", defaults, True)] if machine.params else []
+    for p in machine.params:
+        if p.range is None:
+            continue
+        step = Fraction(1) if p.type == "int" else Fraction(1, 2)
+        for end, value in (("below", p.range[0] - step), ("above", p.range[1] + step)):
+            cases.append(ParamCase(f"{p.name}_{end}", {**defaults, p.name: _param_value(value, p.type)}, False))
+    return cases
+
+
+def _param_value(value: Fraction, kind: str) -> int | float:
+    return int(value) if kind == "int" else float(value)
+
+
+def generate(machine: Machine, depth: int = DEPTH, progress: Callable[[int, int], None] | None = None) -> Suite:
+    """Search a pair for every objective, keep each distinct run once, and replay the runs on the spec."""
+    search = Search(Unrolling(machine, depth))
+    goals = objectives(machine)
+    pairs: list[Pair] = []
+    for n, o in enumerate(goals):
+        pairs.append(search.pair(o))
+        if progress is not None:
+            progress(n + 1, len(goals))
+    return Suite(machine, cases_of(machine, pairs), monitor_cases(pairs), pairs, param_cases(machine), depth)
+
+
+def monitor_cases(pairs: Sequence[Pair]) -> list[MonitorCase]:
+    shots: dict[str, tuple[Snapshot, list[str]]] = {}
+    for p in pairs:
+        for half, found in (("A", p.a), ("B", p.b)):
+            if found is not None and found.snapshot is not None:
+                shots.setdefault(repr(found.snapshot), (found.snapshot, []))[1].append(f"{p.objective.id}:{half}")
+    return [MonitorCase(f"m{n + 1:03d}", s, tuple(c)) for n, (s, c) in enumerate(shots.values())]
+
+
+def cases_of(machine: Machine, pairs: Sequence[Pair]) -> list[Case]:
+    runs: dict[str, tuple[Start, list[Sample], list[str]]] = {}
+    for p in pairs:
+        for half, found in (("A", p.a), ("B", p.b)):
+            if found is None or found.snapshot is not None:
+                continue
+            key = repr((found.start, found.inputs))
+            runs.setdefault(key, (found.start, found.inputs, []))[2].append(f"{p.objective.id}:{half}")
+    ordered = _without_prefixes(list(runs.values()))
+    expected = replay(machine, [(s, r) for s, r, _ in ordered])
+    return [
+        Case(f"t{n + 1:03d}", tuple(r), tuple(e), tuple(covers), s)
+        for n, ((s, r, covers), e) in enumerate(zip(ordered, expected, strict=True))
+    ]
+
+
+def _without_prefixes(runs: list[tuple[Start, list[Sample], list[str]]]) -> list[tuple[Start, list[Sample], list[str]]]:
+    """A run that begins another from the same start keeps no test of its own: the longer run passes the same
+    steps (its objectives move there)."""
+    runs = sorted(runs, key=lambda r: -len(r[1]))
+    kept: list[tuple[Start, list[Sample], list[str]]] = []
+    for start, inputs, covers in runs:
+        host = next((k for k in kept if k[0] == start and k[1][: len(inputs)] == inputs), None)
+        if host is None:
+            kept.append((start, inputs, list(covers)))
+        else:
+            host[2].extend(covers)
+    kept.sort(key=lambda r: (r[0] is not None, len(r[1]), repr(r[1])))
+    return kept
