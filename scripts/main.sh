@@ -5,15 +5,17 @@
 #   2. generate the Python and C99 code of the three deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
 #      the Cortex-M4 cross build, sanitizers; MLCA-T's bit for bit against z3's semantics, its WP without the monitor);
-#   4. run the paper's comparison closed loop in SUMO on a short version of its scenario: the three generated C
+#   4. generate the requirements-based test suites of the three machines to MC/DC, measure their coverage of the
+#      generated Python and C, and run them on a Cortex-M4 under QEMU against the host (out/tests/);
+#   5. run the paper's comparison closed loop in SUMO on a short version of its scenario: the three generated C
 #      controllers and every comparison model, one and three AVs, two seeds each, on the needs of SUMO's own
 #      lane-change model (out/sim.sqlite, made anew), and draw it beside the paper's figures, with the transition
 #      coverage, the shadow mode and the safety checks (out/comparison/report.md);
-#   5. replay in SUMO the counterexamples of MLCA-T's gap-rule lemmas (the old time-gap rule against RSS;
+#   6. replay in SUMO the counterexamples of MLCA-T's gap-rule lemmas (the old time-gap rule against RSS;
 #      out/replay.json);
-#   6. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
-#      evidence of MLCA-T, the machine with data: its proofs, its generated code, its closed-loop runs with their
-#      transition coverage, and its physical-safety section (out/evidence_t/index.html).
+#   7. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
+#      evidence of MLCA-T, the machine with data: its proofs, its generated code and its tests' coverage, its
+#      closed-loop runs with their transition coverage, and its physical-safety section (out/evidence_t/index.html).
 # Reports go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,6 +24,7 @@ mkdir -p out
 .venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml spec/paper/*.toml --json out/check.json
 .venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml
 .venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml --json out/conform.json
+.venv/bin/mlca-verify tests spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml --out out/tests
 rm -f out/sim.sqlite  # made anew: a database of an older layout is refused, and this matrix takes a minute
 .venv/bin/mlca-sim sweep --matrix paper --avs 1,3 --runs 2 --jobs 2 \
     --scenario sim_check/scenarios/short.toml --db out/sim.sqlite
@@ -29,5 +32,5 @@ rm -f out/sim.sqlite  # made anew: a database of an older layout is refused, and
 .venv/bin/mlca-verify evidence spec/mlca_r.toml --db out/sim.sqlite --out out/evidence
 .venv/bin/mlca-sim replay out/check.json --json out/replay.json
 .venv/bin/mlca-verify evidence spec/mlca_t.toml --db out/sim.sqlite --replay out/replay.json --out out/evidence_t
-echo "main: reports in out/check.json, out/conform.json, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
+echo "main: reports in out/check.json, out/conform.json, out/tests/, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
     "out/evidence/ and out/evidence_t/ (open out/evidence/index.html)"

@@ -251,9 +251,14 @@ class Record:
 class DataExplorer:
     """The step relation of a machine with data, by enumeration, and breadth-first searches over it."""
 
-    def __init__(self, machine: Machine, outside: int = 1) -> None:
+    def __init__(self, machine: Machine, outside: int = 1, enumerate_inputs: bool = True) -> None:
+        """`enumerate_inputs` False: only single steps on given inputs (`step`), for signals of any type."""
         self.m = machine
         self.names = tuple(v.name for v in machine.variables)
+        self._moves: dict[tuple[object, ...], list[Move]] = {}
+        self.valuations: list[dict[str, Value]] = []
+        if not enumerate_inputs:
+            return
         domains: list[list[Value]] = [[False, True] for _ in machine.inputs]
         for s in machine.signals:
             low, high = s.range
@@ -262,7 +267,6 @@ class DataExplorer:
             domains.append(list(range(int(low) - outside, int(high) + outside + 1)))
         keys = [i.name for i in machine.inputs] + [s.name for s in machine.signals]
         self.valuations = [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*domains)]
-        self._moves: dict[tuple[object, ...], list[Move]] = {}
 
     # --- params ---------------------------------------------------------------------------------------------
 

@@ -108,6 +108,9 @@ def _parser() -> argparse.ArgumentParser:
     _allow_outside(evidence)
     evidence.add_argument("--db", metavar="RESULTS", help="closed-loop results database (SQLite) to include")
     evidence.add_argument(
+        "--no-tests", action="store_true", help="leave out the generated test suite and its coverage (faster)"
+    )
+    evidence.add_argument(
         "--replay", metavar="FILE", help="SUMO replays of the lemmas' counterexamples (mlca-sim replay --json)"
     )
     evidence.add_argument(
@@ -420,7 +423,8 @@ def cmd_evidence(args: argparse.Namespace) -> int:
             fired = results.transition_counts(loop_controllers(spec))
         runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations, fired)
     replay = _replay(Path(args.replay)) if args.replay else None
-    ev = collect(spec, readings, Path(args.generated), runs, evidence_now(), replay=replay)
+    tests_out = None if args.no_tests else Path(args.out) / "tests"
+    ev = collect(spec, readings, Path(args.generated), runs, evidence_now(), replay=replay, tests_out=tests_out)
     for path in write_bundle(ev, Path(args.out)):
         say(f"wrote {path}")
     say("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")

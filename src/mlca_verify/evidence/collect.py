@@ -30,7 +30,7 @@ from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.conform.data import DATA_CHECKS
 from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
-from mlca_verify.evidence import physics
+from mlca_verify.evidence import coverage, physics
 from mlca_verify.evidence.page import anchor
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.lemmas import named
@@ -102,13 +102,15 @@ class Evidence:
     replay: dict[str, Any] | None = None  # `mlca-sim replay --json` of lemma counterexamples, checked, if given
     physics: dict[str, Any] = field(default_factory=dict)  # physics.section(), for a spec with lemmas
     smt2: dict[str, str] = field(default_factory=dict)  # bundle path -> each lemma's SMT-LIB query, made once
+    coverage: dict[str, Any] = field(default_factory=dict)  # coverage.section() of the generated suite, if run
 
     @property
     def ok(self) -> bool:
         loop_ok = self.loop.get("status") != "failed"
         results_ok = all(r.ok for r in self.results) and all(o.ok for o in self.outcomes)
         data_ok = not self.spec.machine.has_data or parametric_ok(self)
-        return results_ok and loop_ok and data_ok and (not self.physics or physics_ok(self.physics))
+        tests_ok = self.coverage.get("status") != "failed"
+        return results_ok and loop_ok and data_ok and tests_ok and (not self.physics or physics_ok(self.physics))
 
 
 def collect(
@@ -119,10 +121,12 @@ def collect(
     generated_at: str,
     *,
     replay: dict[str, Any] | None = None,
+    tests_out: Path | None = None,
 ) -> Evidence:
     """Prove, check conformance and assemble the evidence for `spec`, with its closed-loop `runs` (None: no
     results database given) and the SUMO `replay` of its lemmas' counterexamples (checked by
-    `physics.check_replay`), read beforehand."""
+    `physics.check_replay`), read beforehand; with `tests_out`, the requirements-based suite is generated there
+    and its coverage measured."""
     loaded_readings = [load_spec(p, compare=False) for p in readings]
     transitions = tuple(t.id for t in spec.machine.transitions)
     loop = closed_loop(runs, spec.machine.name.lower(), transitions)  # every input read before the long work
@@ -134,6 +138,8 @@ def collect(
     if spec.machine.lemmas:
         ev.smt2 = physics.smt2_files(spec.machine)
         ev.physics = physics.section(spec.machine, spec.sha256, results, replay, ev.smt2)
+    if tests_out is not None:
+        ev.coverage = coverage.section(coverage.run_suite(spec, generated, tests_out), loop, tests_out.parent)
     ev.data = document(ev)
     return ev
 
@@ -166,6 +172,8 @@ def document(ev: Evidence) -> dict[str, Any]:
         doc["data_machine"] = data_machine(ev)
     if ev.physics:
         doc["physical_safety"] = ev.physics
+    if ev.coverage:
+        doc["test_coverage"] = ev.coverage
     return doc
 
 
@@ -525,6 +533,8 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     proofs_goal(node, ev.results, with_how=False)
     code_goals(node, ev.outcomes, CHECKS, 3)
     loop_goal(node, ev.loop, 6, "no results database given")
+    if ev.coverage:
+        coverage.coverage_goal(node, ev.coverage, 7)
     return nodes
 
 
@@ -599,6 +609,8 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
     loop_goal(node, ev.loop, 7, "no results database given")
     if ev.physics:
         physics_goal(node, ev, 8)
+    if ev.coverage:
+        coverage.coverage_goal(node, ev.coverage, 9 if ev.physics else 8)
     return nodes
 
 

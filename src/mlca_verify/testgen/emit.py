@@ -8,6 +8,7 @@ with MLCA_TARGET, on a Cortex-M4, so that the two outputs can be compared line f
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -35,6 +36,10 @@ def py_value(value: object) -> str:
 def c_value(value: object, real: bool) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
+    if real and isinstance(value, float) and not math.isfinite(value):
+        return "NAN" if math.isnan(value) else ("INFINITY" if value > 0 else "-INFINITY")
+    if real and isinstance(value, float) and value == 0 and math.copysign(1.0, value) < 0:
+        return "-0.0"
     if real and isinstance(value, int | float):
         return real_literal(Fraction(value))
     return str(value)
@@ -117,7 +122,9 @@ def _counts(suite: Suite) -> dict[str, int]:
     }
 
 
-def c_suite(suite: Suite, header: Header) -> str:
+def c_suite(suite: Suite, header: Header, sequence: Sequence[Mapping[str, object]]) -> str:
+    """The C program; `sequence` (inputs, step by step) is run after the suite and printed for the back-to-back
+    comparison of host and target."""
     m = suite.machine
     real = _types(m)
     invariants = [i.id for i in m.invariants]
@@ -152,6 +159,7 @@ def c_suite(suite: Suite, header: Header) -> str:
         params=params,
         real=real,
         counts=_counts(suite),
+        sequence=[_c_struct(s, real) for s in sequence],
     )
 
 

@@ -38,9 +38,8 @@ MARGIN = Fraction(1, 64)  # how far apart the two sides of a real comparison are
 SHORT = 4  # depths tried one by one before the rest are searched at once
 
 Sample = dict[str, bool | int | float]
-Extra = Callable[
-    [list[z3.BoolRef], z3.BoolRef], z3.BoolRef
-]  # what else B must satisfy, over its conditions and outcome
+# what else the second half of a pair must satisfy, over its conditions and its outcome
+Extra = Callable[[list[z3.BoolRef], z3.BoolRef], z3.BoolRef]
 
 
 @dataclass
@@ -72,6 +71,9 @@ class Found:
     outcome: bool
     snapshot: Snapshot | None = None
     start: dict[str, bool | int | float] | None = None  # the run starts from this context, not the initial one
+
+
+Finder = Callable[["Objective", bool, Extra], "Found | None"]
 
 
 @dataclass
@@ -200,6 +202,17 @@ class Unrolling:
             return None
         found = solver.model()
         return {n: _number(found.eval(t, model_completion=True), self.m, n) for n, t in self.inputs[j].signals.items()}
+
+
+def _anything(conditions: list[z3.BoolRef], outcome: z3.BoolRef) -> z3.BoolRef:
+    return z3.BoolVal(True)
+
+
+def _opposite(value: bool) -> Extra:
+    def extra(conditions: list[z3.BoolRef], outcome: z3.BoolRef) -> z3.BoolRef:
+        return outcome != value
+
+    return extra
 
 
 def value_at(model: z3.ModelRef, term: z3.ExprRef) -> bool | int | float:
@@ -379,29 +392,36 @@ class Search:
         return Found([], values, bool(z3.is_true(model.eval(outcome, model_completion=True))), shot)
 
     def pair(self, o: Objective) -> Pair:
-        result = Pair(o)
+        """A then B relative to it; where no B fits that A, B first and A relative to it."""
         find = self.find_free if o.decision.kind == "invariant" else self.find
-        result.a = find(o, True, lambda conditions, outcome: z3.BoolVal(True))
-        if result.a is None:
+        result = Pair(o)
+        first = find(o, True, _anything)
+        if first is None:
             result.form, result.reason = "none", self.why(o)
             return result
-        a = result.a
+        result.a = first
+        result.b, result.form = self.partner(find, o, first, False)
+        if result.b is None:
+            other = find(o, False, _anything)
+            if other is not None:
+                a, form = self.partner(find, o, other, True)
+                if a is not None:
+                    result.a, result.b, result.form = a, other, form
+        if result.b is None:
+            result.form, result.reason = "none", self.why(o, "false", _opposite(first.outcome))
+        return result
+
+    def partner(self, find: Finder, o: Objective, half: Found, value: bool) -> tuple[Found | None, str]:
+        """The other half of a pair with `half`: unique cause first, else masking."""
 
         def unique(conditions: list[z3.BoolRef], outcome: z3.BoolRef) -> z3.BoolRef:
-            same = [c == a.values[k] for k, c in enumerate(conditions) if k != o.index]
-            return z3.And(outcome != a.outcome, *same)
+            same = [c == half.values[k] for k, c in enumerate(conditions) if k != o.index]
+            return z3.And(outcome != half.outcome, *same)
 
-        def masking(conditions: list[z3.BoolRef], outcome: z3.BoolRef) -> z3.BoolRef:
-            return outcome != a.outcome
-
-        result.b = find(o, False, unique)
-        result.form = "unique cause"
-        if result.b is None:
-            result.b = find(o, False, masking)
-            result.form = "masking"
-        if result.b is None:
-            result.form, result.reason = "none", self.why(o, "false", masking)
-        return result
+        found = find(o, value, unique)
+        if found is not None:
+            return found, "unique cause"
+        return find(o, value, _opposite(half.outcome)), "masking"
 
     def why(self, o: Objective, half: str = "true", extra: Extra | None = None) -> str:
         """Why a condition has no pair: the decision's form, what holds where the code evaluates it, the
