@@ -22,6 +22,7 @@ from mlca_verify.cli import main
 from mlca_verify.conform.data import DATA_CHECKS
 from mlca_verify.evidence import ClosedLoopRuns
 from mlca_verify.evidence.collect import closed_loop
+from mlca_verify.evidence.coverage import GOAL
 from mlca_verify.model import show
 from mlca_verify.spec import load_spec
 from sim_check.cli import main as sim_main
@@ -361,6 +362,23 @@ def test_a_bad_replay_file_is_refused_before_the_proofs(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err and time.perf_counter() - started < 10
     assert not (tmp_path / "out" / "evidence.json").exists()
+
+
+def test_data_machine_bundle_carries_its_tests_and_their_coverage(data_bundles: tuple[Path, Path]) -> None:
+    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+    tc = doc["test_coverage"]
+    assert tc["status"] == "ok" and tc["folder"] == "tests/mlca_t" and tc["target"]["agrees"]
+    assert {"test_mlca_t_mcdc.py", "mlca_t_mcdc.c", "objectives.json", "cobertura-c.xml"} <= set(tc["files"])
+    assert all((data_bundles[0] / tc["folder"] / name).is_file() for name in tc["files"])
+    assert not (data_bundles[0] / tc["folder"] / "build").exists()
+    c = next(x for x in tc["coverage"] if x["language"] == "c")
+    assert c["mcdc"]["percent"] == 100.0 and all(g["reason"] for g in c["gaps"])
+    goal = next(n for n in doc["argument"] if n["text"] == GOAL)
+    assert goal["ok"] is True and goal["parent"] == "S1"
+    solutions = [n for n in doc["argument"] if n["parent"] == goal["id"].replace("G", "S")]
+    assert len(solutions) == 4 and all(n["ok"] for n in solutions)  # the suite, Python, C, the target
+    page = (data_bundles[0] / "index.html").read_text()
+    assert 'id="coverage"' in page and "every one as on the host" in page
 
 
 def test_data_machine_bundles_differ_only_in_the_timestamp(data_bundles: tuple[Path, Path]) -> None:

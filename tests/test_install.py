@@ -66,3 +66,9 @@ def test_the_installed_commands_check_generate_and_conform_elsewhere(installed: 
     )
     assert conformed.returncode == 0, conformed.stdout + conformed.stderr
     assert "mine.toml: 3 of 3 checks passed" in conformed.stdout
+    tested = _run(
+        [str(installed / "mlca-verify"), "tests", "mine.toml", "--generated", "out", "--out", "t", "--no-coverage"],
+        tmp_path,
+    )
+    assert tested.returncode == 0, tested.stdout + tested.stderr  # the Cortex-M4 start-up files are package data
+    assert "every line as on the host" in tested.stdout

@@ -193,6 +193,7 @@ def objectives_json(suite: Suite, header: Header) -> str:
         "depth": suite.depth,
         "counts": _counts(suite),
         "objectives": rows,
+        "unvisited_states": suite.unvisited,
     }
     return json.dumps(doc, indent=1, sort_keys=True) + "\n"
 

@@ -62,6 +62,7 @@ class Coverage:
 
 def python_coverage(test_file: Path, module: Path, work: Path) -> Coverage:
     """The pytest module run under coverage.py with branch coverage, over the generated module alone."""
+    test_file, module, work = test_file.resolve(), module.resolve(), work.resolve()
     data = work / ".coverage"
     env = {**os.environ, "COVERAGE_FILE": str(data), "PYTHONDONTWRITEBYTECODE": "1"}
     ran = run(

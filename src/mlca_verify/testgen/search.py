@@ -158,6 +158,18 @@ class Unrolling:
         answer = self.solver.check(*self.active[: k + 1], z3.And(goal, self.make_concrete(k), *fixed))
         return self.solver.model() if answer == z3.sat else None
 
+    def run_to(self, k: int, goal: z3.BoolRef) -> tuple[list[Sample], z3.ModelRef] | None:
+        """A run of k + 1 steps that meets `goal`, every step made concrete, with its model."""
+        for _ in range(k + 2):
+            model = self.check(k, goal)
+            if model is None:
+                return None
+            run = self.run_inputs(model, k)
+            if not isinstance(run, int):
+                return run, model
+            self.concrete_steps.add(run)
+        return None
+
     def run_inputs(self, model: z3.ModelRef, k: int) -> list[Sample] | int:
         """The inputs of steps 0..k with every abstracted step made concrete, or the first step that cannot be."""
         result: list[Sample] = []
@@ -346,18 +358,23 @@ class Search:
     def at(self, o: Objective, k: int, value: bool, extra: Extra) -> Found | None:
         u = self.unrolling
         goal, p = self.goal(o, k, value, extra)
-        for _ in range(k + 2):
-            model = u.check(k, goal)
-            if model is None:
-                return None
-            run = u.run_inputs(model, k)
-            if isinstance(run, int):
-                u.concrete_steps.add(run)
-                continue
-            _, high, low, conditions = self.terms(o, p, u.system)
-            values = [bool(z3.is_true(model.eval(c, model_completion=True))) for c in conditions]
-            outcome = bool(z3.is_true(model.eval(high if value else low, model_completion=True)))
-            return Found(run, values, outcome)
+        found = u.run_to(k, goal)
+        if found is None:
+            return None
+        run, model = found
+        _, high, low, conditions = self.terms(o, p, u.system)
+        values = [bool(z3.is_true(model.eval(c, model_completion=True))) for c in conditions]
+        outcome = bool(z3.is_true(model.eval(high if value else low, model_completion=True)))
+        return Found(run, values, outcome)
+
+    def visit(self, state: str) -> Found | None:
+        """The shortest run whose last step starts in `state` (a state no decision is evaluated in is stepped
+        from too, which statement and branch coverage ask)."""
+        u = self.unrolling
+        for k in range(u.depth + 1):
+            found = u.run_to(k, u.system.in_states(u.point(k).pre.mode, (state,)))
+            if found is not None:
+                return Found(found[0], [], True)
         return None
 
     def free_point(self) -> tuple[Frame, StepInputs, Frame, Point, z3.BoolRef]:

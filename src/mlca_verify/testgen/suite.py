@@ -5,8 +5,8 @@ relation with every input fixed, never by the generated code."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from fractions import Fraction
 
 import z3
@@ -14,7 +14,7 @@ import z3
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, value_of
 from mlca_verify.model import Machine, prevs_of
 from mlca_verify.testgen.objectives import objectives
-from mlca_verify.testgen.search import Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
+from mlca_verify.testgen.search import Found, Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
 
 DEPTH = 30  # the longest run searched
 MAX_DEPTH = 200  # the longest a user may ask for
@@ -63,6 +63,7 @@ class Suite:
     pairs: list[Pair]
     params: list[ParamCase]
     depth: int
+    unvisited: list[str] = field(default_factory=list)  # states no run of `depth` steps steps from
 
     @property
     def uncovered(self) -> list[Pair]:
@@ -159,7 +160,25 @@ def generate(machine: Machine, depth: int = DEPTH, progress: Callable[[int, int]
         pairs.append(search.pair(o))
         if progress is not None:
             progress(n + 1, len(goals))
-    return Suite(machine, cases_of(machine, pairs), monitor_cases(pairs), pairs, param_cases(machine), depth)
+    visits, unvisited = visit_states(machine, search, pairs)
+    cases = cases_of(machine, pairs, visits)
+    return Suite(machine, cases, monitor_cases(pairs), pairs, param_cases(machine), depth, unvisited)
+
+
+def visit_states(machine: Machine, search: Search, pairs: Sequence[Pair]) -> tuple[dict[str, Found], list[str]]:
+    """A run stepping from each state no pair's run steps from already (a state without decisions)."""
+    stepped = {p.objective.decision.state for p in pairs if p.a is not None and p.a.snapshot is None}
+    visits: dict[str, Found] = {}
+    unvisited: list[str] = []
+    for state in machine.states:
+        if state in stepped:
+            continue
+        found = search.visit(state)
+        if found is None:
+            unvisited.append(state)
+        else:
+            visits[state] = found
+    return visits, unvisited
 
 
 def monitor_cases(pairs: Sequence[Pair]) -> list[MonitorCase]:
@@ -171,14 +190,15 @@ def monitor_cases(pairs: Sequence[Pair]) -> list[MonitorCase]:
     return [MonitorCase(f"m{n + 1:03d}", s, tuple(c)) for n, (s, c) in enumerate(shots.values())]
 
 
-def cases_of(machine: Machine, pairs: Sequence[Pair]) -> list[Case]:
+def cases_of(machine: Machine, pairs: Sequence[Pair], visits: Mapping[str, Found]) -> list[Case]:
+    found_runs = [(f"{p.objective.id}:{half}", f) for p in pairs for half, f in (("A", p.a), ("B", p.b))]
+    found_runs += [(f"state:{state}", f) for state, f in visits.items()]
     runs: dict[str, tuple[Start, list[Sample], list[str]]] = {}
-    for p in pairs:
-        for half, found in (("A", p.a), ("B", p.b)):
-            if found is None or found.snapshot is not None:
-                continue
-            key = repr((found.start, found.inputs))
-            runs.setdefault(key, (found.start, found.inputs, []))[2].append(f"{p.objective.id}:{half}")
+    for cover, found in found_runs:
+        if found is None or found.snapshot is not None:
+            continue
+        key = repr((found.start, found.inputs))
+        runs.setdefault(key, (found.start, found.inputs, []))[2].append(cover)
     ordered = _without_prefixes(list(runs.values()))
     expected = replay(machine, [(s, r) for s, r, _ in ordered])
     return [
