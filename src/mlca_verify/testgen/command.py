@@ -25,10 +25,10 @@ from mlca_verify.testgen import target
 from mlca_verify.testgen.emit import Header, c_suite, objectives_json, python_suite
 from mlca_verify.testgen.explain import fill
 from mlca_verify.testgen.formats import sarif
-from mlca_verify.testgen.measure import Coverage, c_coverage, python_coverage
+from mlca_verify.testgen.measure import Coverage, build_runner, c_coverage, python_coverage
 from mlca_verify.testgen.search import Sample
 from mlca_verify.testgen.suite import DEPTH, Suite, generate
-from mlca_verify.tools import C_FLAGS, run
+from mlca_verify.tools import run
 
 Say = Callable[[str], None]
 SEQUENCE_STEPS = 2_000  # steps of the conformance sequence the C program runs on host and target
@@ -95,22 +95,7 @@ def write_suite(spec: LoadedSpec, suite: Suite, folder: Path, generated: Path) -
 
 def host_run(runner: Path, generated_c: Path, work: Path) -> tuple[bool, list[str]]:
     exe = work / "runner-host"
-    built = run(
-        [
-            "gcc",
-            *C_FLAGS,
-            "-O2",
-            "-ffp-contract=off",
-            f"-I{generated_c.parent}",
-            "-o",
-            str(exe),
-            str(runner),
-            str(generated_c),
-        ],
-        timeout=300,
-    )
-    if built.returncode != 0:
-        raise ToolError(f"error: gcc failed on {runner}:\n{built.output[-3000:]}")
+    build_runner("gcc", ("-O2", "-ffp-contract=off"), runner, generated_c, exe)
     ran = run([str(exe)], timeout=120, stdin="")
     return ran.returncode == 0, ran.output.splitlines()
 

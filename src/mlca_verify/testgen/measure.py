@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -125,25 +126,20 @@ def _python_figures(doc: dict[str, Any], module: Path, passed: bool) -> Coverage
     return cov
 
 
+def build_runner(compiler: str, flags: Sequence[str], runner: Path, generated_c: Path, exe: Path) -> str:
+    """The suite's C program linked with the generated C into `exe`, by `compiler` with the project's warnings
+    and `flags`; the compiler's output."""
+    command = [compiler, *C_FLAGS, *flags, f"-I{generated_c.parent}", "-o", str(exe), str(runner), str(generated_c)]
+    built = run(command, timeout=300)
+    if built.returncode != 0:
+        raise ToolError(f"error: {compiler} failed on {runner}:\n{built.output[-3000:]}")
+    return built.output
+
+
 def c_coverage(runner: Path, generated_c: Path, work: Path) -> Coverage:
     """The C program built with clang's source-based coverage and MC/DC, run once, and its report."""
     exe = work / "runner-coverage"
-    built = run(
-        [
-            CLANG,
-            *C_FLAGS,
-            "-Wno-error",
-            *COVERAGE_FLAGS,
-            f"-I{generated_c.parent}",
-            "-o",
-            str(exe),
-            str(runner),
-            str(generated_c),
-        ],
-        timeout=300,
-    )
-    if built.returncode != 0:
-        raise ToolError(f"error: {CLANG} failed:\n{built.output[-3000:]}")
+    warnings = build_runner(CLANG, ("-Wno-error", *COVERAGE_FLAGS), runner, generated_c, exe)
     raw = work / "runner.profraw"
     ran = run([str(exe)], env={**os.environ, "LLVM_PROFILE_FILE": str(raw)}, timeout=300)
     merged = work / "runner.profdata"
@@ -155,9 +151,7 @@ def c_coverage(runner: Path, generated_c: Path, work: Path) -> Coverage:
     lcov = run([LLVM_COV, "export", "-format=lcov", str(exe), f"-instr-profile={merged}", str(generated_c)], stdin="")
     cobertura = cobertura_from_lcov(lcov.output, generated_c.name)
     (work.parent / "cobertura-c.xml").write_text(cobertura, encoding="utf-8")
-    notes = [
-        line.split("warning: ", 1)[1] for line in built.output.splitlines() if "MC/DC" in line and "warning: " in line
-    ]
+    notes = [line.split("warning: ", 1)[1] for line in warnings.splitlines() if "MC/DC" in line and "warning: " in line]
     return _c_figures(json.loads(exported.output), generated_c, ran.returncode == 0, notes)
 
 
