@@ -57,7 +57,8 @@ def _worker(
 ) -> None:
     _die_with(parent)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the sweep's to handle: it stops the workers
-    tempfile.tempdir = str(work)  # the worker's own temporary files (the compiled controller) go with its folder
+    tempfile.tempdir = str(work)  # the worker's own temporary files (the compiled controller) go with its folder,
+    os.environ["TMPDIR"] = str(work)  # and the compiler's: a build stopped halfway leaves nothing elsewhere
     while True:
         job = jobs.get()
         if job is None:

@@ -480,3 +480,19 @@ def test_a_machine_without_invariants_or_outputs_and_a_state_without_decisions(
     out = capsys.readouterr().out
     assert "python pass  h_fsm.py: statements 100.0% (59/59), branches 100.0% (10/10)" in out
     assert "MC/DC 100.0% (6/6)" in out and "every line as on the host" in out
+
+
+def test_a_definition_is_read_where_the_short_circuit_reaches_it() -> None:
+    from mlca_verify.model import Var, nodes
+    from mlca_verify.testgen.reads import paths
+
+    a, b, c = Var("a"), Var("L"), Var("c")
+    assert paths(BinOp("and", a, b), "L") == [(a,)]
+    assert paths(BinOp("or", a, b), "L") == [(Not(a),)]
+    assert paths(BinOp("and", b, c), "L") == [()]
+    assert paths(Not(BinOp("->", a, BinOp("and", c, b))), "L") == [(a, c)]
+    m = load_spec(ROOT / "spec/mlca_t.toml").machine
+    given = {o.decision.id: o.decision.given for o in objectives(m)}
+    read, checks = given["def:L"]  # L is read where a guard reaches it, its rule once its samples are valid
+    assert StateIn(("MOVING_LEFT",)) in set(nodes(read)) and Var("U") in set(nodes(read))
+    assert given["valid:L"] == (read,) and Var("v") in set(nodes(checks))

@@ -37,6 +37,7 @@ from mlca_verify.model import (
     children,
     show,
 )
+from mlca_verify.testgen.reads import read_context
 
 Where = Literal["pre", "post"]  # over the frame before the step (guards, definitions) or after it (monitor, outputs)
 
@@ -109,15 +110,22 @@ def guard_decisions(machine: Machine) -> Iterator[Decision]:
 
 def definition_decisions(machine: Machine) -> Iterator[Decision]:
     """A boolean definition's rule, and before it the range checks of its samples (the code evaluates the rule
-    only when they pass)."""
+    only when they pass), where the step code reads the definition."""
     for d in machine.definitions:
         if d.type != "bool":
             continue
+        read = _read(machine, d.name)
         checks = validity(machine, d.signals)
         if checks is not None:
-            yield Decision(f"valid:{d.name}", "definition", checks, "pre", cite=d.cite, loc=d.loc)
-        given = (checks,) if checks else ()
-        yield Decision(f"def:{d.name}", "definition", d.expr, "pre", given=given, cite=d.cite, loc=d.loc)
+            yield Decision(f"valid:{d.name}", "definition", checks, "pre", None, read, d.cite, d.loc)
+        given = (*read, checks) if checks is not None else read
+        yield Decision(f"def:{d.name}", "definition", d.expr, "pre", None, given, d.cite, d.loc)
+
+
+def _read(machine: Machine, name: str) -> tuple[Expr, ...]:
+    checks = {d.name: validity(machine, d.signals) for d in machine.definitions if d.type == "bool"}
+    context = read_context(machine, name, checks)
+    return () if context is None else (context,)
 
 
 def rule(machine: Machine, name: str) -> Expr:
@@ -130,16 +138,34 @@ def rule(machine: Machine, name: str) -> Expr:
 
 
 def choice_decisions(machine: Machine) -> Iterator[Decision]:
-    """The branch inside each `min`/`max` of two arguments, `abs`, and `if then else`."""
-    roots: list[tuple[str, Expr, Where, Loc, str]] = [
-        (d.name, d.expr, "pre", d.loc, d.cite) for d in machine.definitions
-    ]
-    roots += [(f"every:{v.name}", v.every, "pre", v.loc, v.cite) for v in machine.variables if v.every is not None]
-    roots += [(f"out:{o.name}", o.expr, "post", o.loc, o.cite) for o in machine.outputs]
-    for name, root, where, loc, cite in roots:
+    """The branch inside each `min`/`max` of two arguments, `abs`, and `if then else`: in a definition, read
+    where its samples are valid; in a variable's `every`, read where no transition that updates the variable is
+    enabled (the code reads `every` only when no update applies); in an output, every step."""
+    Root = tuple[str, Expr, Where, Loc, str, tuple[Expr, ...]]
+    roots: list[Root] = []
+    for d in machine.definitions:
+        checks = validity(machine, d.signals)
+        given = (*_read(machine, d.name), checks) if checks is not None else _read(machine, d.name)
+        roots.append((d.name, d.expr, "pre", d.loc, d.cite, given))
+    for v in machine.variables:
+        if v.every is not None:
+            roots.append((f"every:{v.name}", v.every, "pre", v.loc, v.cite, _no_update(machine, v.name)))
+    roots += [(f"out:{o.name}", o.expr, "post", o.loc, o.cite, ()) for o in machine.outputs]
+    for name, root, where, loc, cite, given in roots:
         for k, node in enumerate(_choices(root)):
             kind: Literal["choice", "output"] = "output" if isinstance(node, Ite) else "choice"
-            yield Decision(f"{kind}:{name}#{k + 1}", kind, _choice_condition(node), where, cite=cite, loc=loc)
+            condition = _choice_condition(node)
+            yield Decision(f"{kind}:{name}#{k + 1}", kind, condition, where, None, given, cite, loc)
+
+
+def _no_update(machine: Machine, variable: str) -> tuple[Expr, ...]:
+    """No transition that updates `variable` is enabled."""
+    given: list[Expr] = []
+    for t in machine.transitions:
+        if any(u.variable == variable for u in t.updates):
+            enabled = t.guard if t.sources is None else BinOp("and", StateIn(t.sources), t.guard)
+            given.append(Not(enabled))
+    return tuple(given)
 
 
 def _choices(expr: Expr) -> list[Expr]:

@@ -36,6 +36,7 @@ from mlca_verify.testgen.objectives import Decision, Objective, atoms, rule
 
 MARGIN = Fraction(1, 64)  # how far apart the two sides of a real comparison are kept at a concrete step
 SHORT = 4  # depths tried one by one before the rest are searched at once
+DIGITS = 40  # decimal digits a real of a model is read to
 
 Sample = dict[str, bool | int | float]
 # what else the second half of a pair must satisfy, over its conditions and its outcome
@@ -135,7 +136,8 @@ class Unrolling:
         i, post = self.system.inputs(str(k)), self.system.frame(str(k + 1))
         link, terms = self.system.step(self.frames[k], i, post)
         act = z3.Bool(f"act@{k}")
-        self.solver.add(z3.Implies(act, z3.And(link, self.system.assumptions(self.frames[k], i))))
+        bounds = signal_bounds(self.system, i)
+        self.solver.add(z3.Implies(act, z3.And(link, self.system.assumptions(self.frames[k], i), *bounds)))
         self.frames.append(post)
         self.inputs.append(i)
         self.terms.append(terms)
@@ -209,6 +211,7 @@ class Unrolling:
         for d, value in zip(self.abstracted, chosen, strict=True):
             solver.add(self.system.ev(self.def_exprs[d], pre) == value)
         solver.add(*[b == value for b, value in zip(self.inputs[j].bools.values(), bools, strict=True)])
+        solver.add(*signal_bounds(self.system, self.inputs[j]))
         solver.add(*margins(self.system, [self.def_exprs[d] for d in self.abstracted], pre))
         if solver.check() != z3.sat:
             return None
@@ -228,7 +231,26 @@ def _opposite(value: bool) -> Extra:
 
 
 def value_at(model: z3.ModelRef, term: z3.ExprRef) -> bool | int | float:
-    return python_value(model.eval(term, model_completion=True))
+    return plain(model.eval(term, model_completion=True))
+
+
+def plain(value: z3.ExprRef) -> bool | int | float:
+    """A model's value as Python holds it; a real through its decimal expansion (z3 may answer a rational whose
+    numerator has thousands of digits, which exact conversion refuses and binary64 does not need)."""
+    if z3.is_rational_value(value) and not z3.is_int_value(value):
+        return float(value.as_decimal(DIGITS).rstrip("?"))
+    return python_value(value)
+
+
+def signal_bounds(system: System, i: StepInputs) -> list[z3.BoolRef]:
+    """Each sample within its range widened by the range's width on either side: outside it, but not absurdly."""
+    parts = []
+    for name, term in i.signals.items():
+        low, high = system.signals[name].range
+        kind = system.signals[name].type
+        width = high - low
+        parts += [term >= value_of(low - width, kind), term <= value_of(high + width, kind)]
+    return parts
 
 
 def frame_values(model: z3.ModelRef, f: Frame) -> dict[str, bool | int | float]:
@@ -246,7 +268,7 @@ def _bool_def(machine: Machine, name: str) -> bool:
 
 
 def _number(term: z3.ExprRef, machine: Machine, name: str) -> int | float:
-    value = python_value(term)
+    value = plain(term)
     kind = next(s.type for s in machine.signals if s.name == name)
     return float(value) if kind == "real" else int(value)
 
@@ -315,6 +337,7 @@ class Search:
         solver = z3.Solver()
         solver.set("timeout", 20_000)
         solver.add(link, s.well_formed(pre), z3.Not(pre.first), s.assumptions(pre, i), *self.in_range(pre))
+        solver.add(*signal_bounds(s, i))
         solver.add(self.context(o.decision, p, s), cond == value, z3.Xor(high, low), extra(conditions, outcome))
         solver.add(*margins(s, self.read_by(o.decision), p.pre))
         if solver.check() != z3.sat:
@@ -386,6 +409,7 @@ class Search:
         after = Valuation(post.mode, post.variables, i, s.param_values(post), previous)
         # the context after may hold a mode that names no state (the monitor's A1 and `state_valid` see it)
         sane = [s.well_formed(pre), post.mode >= 0, post.mode <= len(s.m.states), z3.Not(post.first)]
+        sane += signal_bounds(s, i)
         sane += [s.param_ranges(s.param_values(post)), s.assumptions(pre, i), *self.in_range(pre), *self.in_range(post)]
         return pre, i, post, Point(before, after, 0), z3.And(*sane)
 

@@ -1,0 +1,67 @@
+"""Where the generated code reads a definition: the code evaluates a definition lazily, inside the guards (and the
+other definitions) that name it, and C and Python stop evaluating `a and b` once `a` is false. A decision inside
+a definition is covered only at a step where the code reaches it; this module writes that condition as an
+expression over the step, from the spec alone."""
+
+from __future__ import annotations
+
+from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
+
+Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
+
+
+def paths(expr: Expr, name: str, along: Path = ()) -> list[Path]:
+    """For each occurrence of `name` in `expr`, what must hold for the code to evaluate it (short circuits and
+    the branches of `if then else`)."""
+    if isinstance(expr, Var):
+        return [along] if expr.name == name else []
+    if isinstance(expr, Prev):
+        return []  # a register: the value of an earlier step, not a read now
+    if isinstance(expr, BinOp):
+        right = {"and": (expr.left,), "or": (Not(expr.left),), "->": (expr.left,), "<->": ()}[expr.op]
+        return paths(expr.left, name, along) + paths(expr.right, name, along + right)
+    if isinstance(expr, Ite):
+        found = paths(expr.cond, name, along)
+        return found + paths(expr.then, name, (*along, expr.cond)) + paths(expr.other, name, (*along, Not(expr.cond)))
+    return [p for child in children(expr) for p in paths(child, name, along)]
+
+
+def _all(parts: list[Expr]) -> Expr:
+    if not parts:
+        return Const(True)
+    whole = parts[0]
+    for p in parts[1:]:
+        whole = BinOp("and", whole, p)
+    return whole
+
+
+def _any(parts: list[Expr]) -> Expr:
+    whole = parts[0]
+    for p in parts[1:]:
+        whole = BinOp("or", whole, p)
+    return whole
+
+
+def _reads(expr: Expr | None, name: str) -> bool:
+    return expr is not None and any(isinstance(n, Var) and n.name == name for n in nodes(expr))
+
+
+def read_context(machine: Machine, name: str, checks: dict[str, Expr | None]) -> Expr | None:
+    """Where the step code reads definition `name` (None: at every step, or only in the monitor, which the
+    suite calls at every step). `checks` gives each boolean definition's range checks."""
+    if any(_reads(v.every, name) for v in machine.variables) or any(_reads(o.expr, name) for o in machine.outputs):
+        return None
+    if any(_reads(u.expr, name) for t in machine.transitions for u in t.updates):
+        return None
+    parts: list[Expr] = []
+    for state in machine.states:
+        earlier: list[Expr] = []
+        for t in machine.outgoing(state):
+            parts += [_all([StateIn((state,)), *earlier, *p]) for p in paths(t.guard, name)]
+            earlier.append(Not(t.guard))
+    for d in machine.definitions:
+        if d.name != name and _reads(d.expr, name):
+            outer = read_context(machine, d.name, checks)
+            gate = [g for g in (outer, checks.get(d.name)) if g is not None]
+            parts += [_all([*gate, *p]) for p in paths(d.expr, name)]
+    return _any(parts) if parts else None
