@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal
 
+from mlca_verify.codegen.simplify import conjoin
 from mlca_verify.errors import Loc
 from mlca_verify.model import (
     IN_MEMORY,
@@ -92,12 +93,7 @@ def validity(machine: Machine, signals: tuple[str, ...]) -> Expr | None:
         low, high = by_name[name].range
         real = by_name[name].type == "real"
         parts += [Cmp("<=", Num(low, real), Var(name)), Cmp("<=", Var(name), Num(high, real))]
-    if not parts:
-        return None
-    whole = parts[0]
-    for p in parts[1:]:
-        whole = BinOp("and", whole, p)
-    return whole
+    return conjoin(parts) if parts else None
 
 
 def guard_decisions(machine: Machine) -> Iterator[Decision]:

@@ -5,7 +5,8 @@ expression over the step, from the spec alone."""
 
 from __future__ import annotations
 
-from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
+from mlca_verify.codegen.simplify import conjoin
+from mlca_verify.model import BinOp, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
 
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
 
@@ -24,15 +25,6 @@ def paths(expr: Expr, name: str, along: Path = ()) -> list[Path]:
         found = paths(expr.cond, name, along)
         return found + paths(expr.then, name, (*along, expr.cond)) + paths(expr.other, name, (*along, Not(expr.cond)))
     return [p for child in children(expr) for p in paths(child, name, along)]
-
-
-def _all(parts: list[Expr]) -> Expr:
-    if not parts:
-        return Const(True)
-    whole = parts[0]
-    for p in parts[1:]:
-        whole = BinOp("and", whole, p)
-    return whole
 
 
 def _any(parts: list[Expr]) -> Expr:
@@ -57,11 +49,11 @@ def read_context(machine: Machine, name: str, checks: dict[str, Expr | None]) ->
     for state in machine.states:
         earlier: list[Expr] = []
         for t in machine.outgoing(state):
-            parts += [_all([StateIn((state,)), *earlier, *p]) for p in paths(t.guard, name)]
+            parts += [conjoin([StateIn((state,)), *earlier, *p]) for p in paths(t.guard, name)]
             earlier.append(Not(t.guard))
     for d in machine.definitions:
         if d.name != name and _reads(d.expr, name):
             outer = read_context(machine, d.name, checks)
             gate = [g for g in (outer, checks.get(d.name)) if g is not None]
-            parts += [_all([*gate, *p]) for p in paths(d.expr, name)]
+            parts += [conjoin([*gate, *p]) for p in paths(d.expr, name)]
     return _any(parts) if parts else None
