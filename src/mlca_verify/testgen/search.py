@@ -16,7 +16,7 @@ decides them as the exact arithmetic of the spec does.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 
 import z3
@@ -293,7 +293,6 @@ class Search:
     """The pairs of every objective of one machine."""
 
     unrolling: Unrolling
-    log: list[str] = field(default_factory=list)
 
     def context(self, d: Decision, p: Point, s: System) -> z3.BoolRef:
         parts = [] if d.state is None else [s.in_states(p.pre.mode, (d.state,))]

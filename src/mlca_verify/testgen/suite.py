@@ -5,7 +5,7 @@ relation with every input fixed, never by the generated code."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 
@@ -151,15 +151,10 @@ def _param_value(value: Fraction, kind: str) -> int | float:
     return int(value) if kind == "int" else float(value)
 
 
-def generate(machine: Machine, depth: int = DEPTH, progress: Callable[[int, int], None] | None = None) -> Suite:
+def generate(machine: Machine, depth: int = DEPTH) -> Suite:
     """Search a pair for every objective, keep each distinct run once, and replay the runs on the spec."""
     search = Search(Unrolling(machine, depth))
-    goals = objectives(machine)
-    pairs: list[Pair] = []
-    for n, o in enumerate(goals):
-        pairs.append(search.pair(o))
-        if progress is not None:
-            progress(n + 1, len(goals))
+    pairs = [search.pair(o) for o in objectives(machine)]
     visits, unvisited = visit_states(machine, search, pairs)
     cases = cases_of(machine, pairs, visits)
     return Suite(machine, cases, monitor_cases(pairs), pairs, param_cases(machine), depth, unvisited)
