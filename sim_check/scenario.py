@@ -50,6 +50,7 @@ class Traffic:
     step_s: float = 0.1
     target_lane: str = "middle"
     need: str = "sumo"  # where the sensed controllers' need comes from (sim_check.need): sumo or middle
+    av_arrival_lane: str = ""  # the lane the AVs leave the road from (SUMO's arrivalLane), "" for any
 
 
 LIMITS: dict[str, tuple[float, float]] = {  # beyond these a value is a mistake, or a run no machine finishes
@@ -79,7 +80,15 @@ class Scenario:
     @property
     def target_lane(self) -> int:
         """Highway lane index (0 = rightmost) the AVs settle in."""
-        return self.road.lanes // 2 if self.traffic.target_lane == "middle" else int(self.traffic.target_lane)
+        return self._lane(self.traffic.target_lane)
+
+    @property
+    def arrival_lane(self) -> int | None:
+        """Highway lane index the AVs leave the road from, or None where they may leave from any."""
+        return self._lane(self.traffic.av_arrival_lane) if self.traffic.av_arrival_lane else None
+
+    def _lane(self, name: str) -> int:
+        return self.road.lanes // 2 if name == "middle" else int(name)
 
 
 def load_scenario(path: Path | None = None) -> Scenario:
@@ -134,7 +143,7 @@ def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> 
         if key not in known:
             raise SpecError(where.loc((name, key)), f"unknown key '{key}' in [{name}] (known: {', '.join(known)})")
         at, what = where.loc((name, key)), f"'{key}' in [{name}]"
-        if key == "target_lane":
+        if key == "target_lane" or (key == "av_arrival_lane" and given != ""):
             values[key] = _lane_name(given, at, what)
         elif known[key] == "str":
             values[key] = _text(key, given, at, what)
@@ -188,12 +197,14 @@ def _lane_name(given: object, at: Loc, what: str) -> str:
 
 
 def _check_lane(scenario: Scenario, where: Locator) -> None:
-    lanes, lane = scenario.road.lanes, scenario.traffic.target_lane
-    if lane != "middle" and int(lane) >= lanes:
-        raise SpecError(
-            where.loc(("traffic", "target_lane")),
-            f"'target_lane' in [traffic] is lane {lane}, but the road has {lanes} lanes (0 = rightmost to {lanes - 1})",
-        )
+    lanes = scenario.road.lanes
+    for key in ("target_lane", "av_arrival_lane"):
+        lane = getattr(scenario.traffic, key)
+        if lane not in ("", "middle") and int(lane) >= lanes:
+            raise SpecError(
+                where.loc(("traffic", key)),
+                f"'{key}' in [traffic] is lane {lane}, but the road has {lanes} lanes (0 = rightmost to {lanes - 1})",
+            )
 
 
 def _with_osm(scenario: Scenario, path: Path, where: Locator) -> Scenario:
@@ -205,6 +216,10 @@ def _with_osm(scenario: Scenario, path: Path, where: Locator) -> Scenario:
         raise SpecError(where.loc(("road", "osm")), f"OpenStreetMap file '{road.osm}' not found (looked for {osm})")
     if not road.route.split():
         raise SpecError(where.loc(("road", "osm")), "an OpenStreetMap road needs 'route', the edge ids to drive")
+    if scenario.traffic.av_arrival_lane:
+        raise SpecError(
+            where.loc(("traffic", "av_arrival_lane")), "'av_arrival_lane' is for the built-in highway, not an OSM road"
+        )
     return replace(scenario, road=replace(road, osm=str(osm)))
 
 
@@ -328,11 +343,12 @@ def _write_routes(scenario: Scenario, seed: int, path: Path, av_type: str) -> tu
     ]
     if osm:  # departure lanes must exist on the first edge of the route; the OSM road decides how many
         cars = [(d, v, r, 0, f) for d, v, r, _, f in cars]
+    arrival = "" if scenario.arrival_lane is None else f' arrivalLane="{scenario.arrival_lane}"'
     for depart, vid, route, lane, factor in sorted(cars + avs):
-        vtype = "av" if vid.startswith("av") else "car"
+        av = vid.startswith("av")
         lines.append(
-            f'  <vehicle id="{vid}" type="{vtype}" route="{route}" depart="{depart:.1f}" departLane="{lane}" '
-            f'departSpeed="desired" speedFactor="{factor:.3f}"/>'
+            f'  <vehicle id="{vid}" type="{"av" if av else "car"}" route="{route}" depart="{depart:.1f}" '
+            f'departLane="{lane}" departSpeed="desired" speedFactor="{factor:.3f}"{arrival if av else ""}/>'
         )
     lines.append("</routes>")
     path.write_text("\n".join(lines) + "\n")

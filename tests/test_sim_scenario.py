@@ -8,7 +8,7 @@ import pytest
 
 from mlca_verify.errors import SpecError
 from sim_check.runner import run_once
-from sim_check.scenario import load_scenario
+from sim_check.scenario import build, load_scenario
 from tests.conftest import ROOT
 
 
@@ -44,4 +44,36 @@ def test_openstreetmap_road_needs_a_route(tmp_path: Path) -> None:
     scenario_file = tmp_path / "osm.toml"
     scenario_file.write_text(f'[road]\nosm = "{ROOT / "tests" / "fixtures" / "small.osm"}"\n')
     with pytest.raises(SpecError, match=r"osm\.toml:2:7: error: an OpenStreetMap road needs 'route'"):
+        load_scenario(scenario_file)
+
+
+def test_arrival_lane_is_given_to_the_avs_alone(tmp_path: Path) -> None:
+    exit_file = ROOT / "sim_check" / "scenarios" / "exit.toml"
+    scenario = load_scenario(exit_file)
+    assert (scenario.arrival_lane, load_scenario().arrival_lane) == (0, None)
+    routes = build(scenario.with_avs(3), 1, tmp_path).routes.read_text().splitlines()
+    avs = [line for line in routes if 'type="av"' in line]
+    assert len(avs) == 3 and all('arrivalLane="0"' in line for line in avs)
+    assert sum("arrivalLane" in line for line in routes) == 3  # the background cars leave from any lane
+    middle = tmp_path / "middle.toml"
+    middle.write_text('[traffic]\nav_arrival_lane = "middle"\n')
+    assert load_scenario(middle).arrival_lane == 2
+
+
+def test_the_exit_makes_mlca_t_urgent_right_and_right_abort_fire(tmp_path: Path) -> None:
+    """On the paper's road neither can fire (no urgent wish to the right); an exit in the rightmost lane makes SUMO's
+    model want the right urgently near the end, and moves of more than one lane to the right."""
+    scenario = load_scenario(ROOT / "sim_check" / "scenarios" / "exit.toml").with_avs(3)
+    result = run_once(scenario, "mlca_t-c", 4, tmp_path)
+    assert result.status == "done" and result.violations == []
+    fired = {t: sum(m.transitions.get(t, 0) for m in result.metrics) for t in ("urgent_right", "right_abort")}
+    assert fired["urgent_right"] >= 1 and fired["right_abort"] >= 1
+    assert any(e.urgent and e.side == -1 for m in result.metrics for e in m.episodes)
+
+
+def test_openstreetmap_road_takes_no_arrival_lane(tmp_path: Path) -> None:
+    scenario_file = tmp_path / "osm.toml"
+    osm = ROOT / "tests" / "fixtures" / "small.osm"
+    scenario_file.write_text(f'[road]\nosm = "{osm}"\nroute = "100"\n[traffic]\nav_arrival_lane = 0\n')
+    with pytest.raises(SpecError, match=r"osm\.toml:4:19: error: 'av_arrival_lane' is for the built-in highway"):
         load_scenario(scenario_file)
