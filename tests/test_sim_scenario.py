@@ -75,5 +75,5 @@ def test_openstreetmap_road_takes_no_arrival_lane(tmp_path: Path) -> None:
     scenario_file = tmp_path / "osm.toml"
     osm = ROOT / "tests" / "fixtures" / "small.osm"
     scenario_file.write_text(f'[road]\nosm = "{osm}"\nroute = "100"\n[traffic]\nav_arrival_lane = 0\n')
-    with pytest.raises(SpecError, match=r"osm\.toml:4:19: error: 'av_arrival_lane' is for the built-in highway"):
+    with pytest.raises(SpecError, match=r"osm\.toml:5:19: error: 'av_arrival_lane' is for the built-in highway"):
         load_scenario(scenario_file)
