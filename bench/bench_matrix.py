@@ -10,8 +10,9 @@ Run on demand:
   finest resolution, so that the coarsest resolution whose results agree can be chosen.
 - `.venv/bin/python bench/bench_matrix.py --floor --runs 100 --seeds 2`: the floor of the matrix on this machine:
   plain SUMO alone (`sim_check.runner.run_plain`: no closed loop) for each controller's SUMO configuration, with 1
-  and 3 AVs, on SEEDS seeds; RUNS such runs of every configuration, shared perfectly by JOBS workers, is the least
-  time any harness could take for the matrix here.
+  and 3 AVs, on SEEDS seeds, JOBS runs at once; RUNS such runs of every configuration, shared perfectly by JOBS
+  workers, is the least time any harness could take for the matrix here. `--scenario FILE` runs the matrix and
+  its floor on another scenario.
 """
 
 from __future__ import annotations
@@ -62,29 +63,41 @@ def lateral(runs: int, jobs: int) -> None:
               f"{sum(r.collisions for r in rows):14d}")  # fmt: skip
 
 
-def floor(runs: int, jobs: int, seeds: int) -> None:
-    measured: dict[tuple[str, tuple[str, ...], int], float] = {}  # (AV vType, options, AVs) -> mean s per run
-    total = 0.0
-    print(f"plain SUMO per configuration of the matrix, mean of seeds 0..{seeds - 1} (one process):")
-    print(f"  {'controller':12} {'avs':>3} {'s/run':>7}")
+def _plain_run(job: tuple[str, int, int, str]) -> tuple[str, int, float]:
+    controller, avs, seed, scenario_file = job
+    scenario = load_scenario(Path(scenario_file) if scenario_file else None).with_avs(avs)
     with tempfile.TemporaryDirectory() as work:
-        for controller in PAPER_MATRIX:
-            setup = SETUPS[controller]
-            for avs in (1, 3):
-                key = (setup.av_type, setup.options, avs)
-                if key not in measured:
-                    scenario = load_scenario().with_avs(avs)
-                    walls = [run_plain(scenario, seed, Path(work), setup=setup)[0] for seed in range(seeds)]
-                    measured[key] = statistics.mean(walls)
-                total += measured[key] * runs
-                print(f"  {controller:12} {avs:>3} {measured[key]:7.2f}", flush=True)
+        return controller, avs, run_plain(scenario, seed, Path(work), setup=SETUPS[controller])[0]
+
+
+def floor(runs: int, jobs: int, seeds: int, scenario_file: str) -> None:
+    """Plain SUMO for each SUMO configuration of the matrix on SEEDS seeds, run on JOBS workers at once (so that the
+    runs share the machine as the matrix's do); RUNS runs of every configuration, perfectly shared, is the floor."""
+    configs: dict[tuple[str, tuple[str, ...], int], str] = {}  # (AV vType, options, AVs) -> first controller
+    for controller in PAPER_MATRIX:
+        for avs in (1, 3):
+            configs.setdefault((SETUPS[controller].av_type, SETUPS[controller].options, avs), controller)
+    work = [(c, avs, seed, scenario_file) for (_t, _o, avs), c in configs.items() for seed in range(seeds)]
+    walls: dict[tuple[str, int], list[float]] = defaultdict(list)
+    with mp.get_context("spawn").Pool(jobs) as pool:
+        for controller, avs, wall in pool.imap_unordered(_plain_run, work):
+            walls[(controller, avs)].append(wall)
+    print(f"plain SUMO per configuration of the matrix, mean of seeds 0..{seeds - 1} ({jobs} workers at once):")
+    print(f"  {'controller':12} {'avs':>3} {'s/run':>7}")
+    total = 0.0
+    for controller in PAPER_MATRIX:
+        for avs in (1, 3):
+            mean = statistics.mean(walls[(configs[(SETUPS[controller].av_type, SETUPS[controller].options, avs)], avs)])
+            total += mean * runs
+            print(f"  {controller:12} {avs:>3} {mean:7.2f}", flush=True)
     print(f"floor of the full matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} "
-          f"workers: {total / jobs / 60:.1f} min of SUMO alone (target for the whole matrix: 40 min)")  # fmt: skip
+          f"workers: {total / jobs / 60:.1f} min of SUMO alone")  # fmt: skip
 
 
-def matrix(runs: int, jobs: int, db: Path) -> None:
+def matrix(runs: int, jobs: int, db: Path, scenario_file: str) -> None:
     start = time.perf_counter()
     argv = ["sweep", "--matrix", "paper", "--runs", str(runs), "--jobs", str(jobs), "--db", str(db), "--resume"]
+    argv += ["--scenario", scenario_file] if scenario_file else []
     code = sim_main(argv)
     wall = time.perf_counter() - start
     print(f"\nfull matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} workers: "
@@ -120,13 +133,14 @@ def main() -> None:
     parser.add_argument("--lateral", action="store_true", help="compare the sublane model's lateral resolutions")
     parser.add_argument("--floor", action="store_true", help="the matrix's floor: plain SUMO per configuration")
     parser.add_argument("--seeds", type=int, default=2, help="seeds per configuration for --floor")
+    parser.add_argument("--scenario", default="", help="scenario file of the matrix and its floor (default: paper)")
     args = parser.parse_args()
     if args.floor:
-        floor(args.runs, args.jobs, args.seeds)
+        floor(args.runs, args.jobs, args.seeds, args.scenario)
     elif args.lateral:
         lateral(args.runs, args.jobs)
     else:
-        matrix(args.runs, args.jobs, args.db)
+        matrix(args.runs, args.jobs, args.db, args.scenario)
 
 
 if __name__ == "__main__":

@@ -5,7 +5,8 @@ checks that the committed report is what `mlca-sim report` makes of it.
 
 Usage: .venv/bin/python scripts/refresh_comparison.py matrix.sqlite [DIR]
 DIR is docs/comparison by default; docs/comparison/middle holds the comparison under the paper's middle-lane goal
-(a scenario with `need = "middle"`).
+(a scenario with `need = "middle"`), docs/comparison/exit the one with the AVs' exit in the rightmost lane
+(sim_check/scenarios/exit.toml).
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ CASTS = {
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("comparison", "name"),
-    [(COMPARISON, "matrix.sqlite"), *([(COMPARISON / "middle", "middle.sqlite")] * (COMPARISON / "middle").is_dir())],
+    [(COMPARISON, "matrix.sqlite"), (COMPARISON / "middle", "middle.sqlite"), (COMPARISON / "exit", "exit.sqlite")],
 )
 def test_committed_comparison_report_is_what_the_committed_rows_give(
     comparison: Path, name: str, tmp_path: Path

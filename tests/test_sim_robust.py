@@ -488,7 +488,10 @@ def test_target_lane_is_middle_or_an_index_of_the_road(tmp_path: Path) -> None:
         ("[road]\nlanes = 3\n[traffic]\ntarget_lane = 3\n", r":4:15: error: .* is lane 3, but the road has 3 lanes"),
         ("[traffic]\ntarget_lane = true\n", r':2:15: error: .target_lane. .* "middle" or a lane index .* got True'),
         ("[traffic]\nav_arrival_lane = -2\n", r':2:19: error: .av_arrival_lane. .* "middle" or a lane index .* got -2'),
-        ("[road]\nlanes = 2\n[traffic]\nav_arrival_lane = 2\n", r":4:19: error: .av_arrival_lane. in \[traffic\] is lane 2"),
+        (
+            "[road]\nlanes = 2\n[traffic]\nav_arrival_lane = 2\n",
+            r":4:19: error: .av_arrival_lane. in \[traffic\] is lane 2",
+        ),
         ("[traffic]\nstep_s = nan\n", r":2:10: error: 'step_s' in \[traffic\] must be a finite number, got nan"),
         ("[traffic]\nstep_s = inf\n", r":2:10: error: .* must be a finite number, got inf"),
         ("[traffic]\nstep_s = 0.00001\n", r":2:10: error: .* must be at least 0.001"),
