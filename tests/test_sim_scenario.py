@@ -69,6 +69,9 @@ def test_the_exit_makes_mlca_t_urgent_right_and_right_abort_fire(tmp_path: Path)
     fired = {t: sum(m.transitions.get(t, 0) for m in result.metrics) for t in ("urgent_right", "right_abort")}
     assert fired["urgent_right"] >= 1 and fired["right_abort"] >= 1
     assert any(e.urgent and e.side == -1 for m in result.metrics for e in m.episodes)
+    plain_road = run_once(load_scenario().with_avs(3), "mlca_t-c", 4, tmp_path / "paper")
+    assert not any(e.urgent and e.side == -1 for m in plain_road.metrics for e in m.episodes)
+    assert sum(m.transitions.get("urgent_right", 0) for m in plain_road.metrics) == 0
 
 
 def test_openstreetmap_road_takes_no_arrival_lane(tmp_path: Path) -> None:
