@@ -73,11 +73,13 @@ def _plain_run(job: tuple[str, int, int, str]) -> tuple[str, int, float]:
 def floor(runs: int, jobs: int, seeds: int, scenario_file: str) -> None:
     """Plain SUMO for each SUMO configuration of the matrix on SEEDS seeds, run on JOBS workers at once (so that the
     runs share the machine as the matrix's do); RUNS runs of every configuration, perfectly shared, is the floor."""
-    configs: dict[tuple[str, tuple[str, ...], int], str] = {}  # (AV vType, options, AVs) -> first controller
+    first: dict[tuple[str, tuple[str, ...], int], str] = {}  # (AV vType, options, AVs) -> its first controller
+    runs_as: dict[tuple[str, int], str] = {}  # (controller, AVs) -> the controller whose plain runs stand for it
     for controller in PAPER_MATRIX:
+        setup = SETUPS[controller]
         for avs in (1, 3):
-            configs.setdefault((SETUPS[controller].av_type, SETUPS[controller].options, avs), controller)
-    work = [(c, avs, seed, scenario_file) for (_t, _o, avs), c in configs.items() for seed in range(seeds)]
+            runs_as[(controller, avs)] = first.setdefault((setup.av_type, setup.options, avs), controller)
+    work = [(c, avs, seed, scenario_file) for (_t, _o, avs), c in first.items() for seed in range(seeds)]
     walls: dict[tuple[str, int], list[float]] = defaultdict(list)
     with mp.get_context("spawn").Pool(jobs) as pool:
         for controller, avs, wall in pool.imap_unordered(_plain_run, work):
@@ -85,11 +87,10 @@ def floor(runs: int, jobs: int, seeds: int, scenario_file: str) -> None:
     print(f"plain SUMO per configuration of the matrix, mean of seeds 0..{seeds - 1} ({jobs} workers at once):")
     print(f"  {'controller':12} {'avs':>3} {'s/run':>7}")
     total = 0.0
-    for controller in PAPER_MATRIX:
-        for avs in (1, 3):
-            mean = statistics.mean(walls[(configs[(SETUPS[controller].av_type, SETUPS[controller].options, avs)], avs)])
-            total += mean * runs
-            print(f"  {controller:12} {avs:>3} {mean:7.2f}", flush=True)
+    for (controller, avs), measured_as in runs_as.items():
+        mean = statistics.mean(walls[(measured_as, avs)])
+        total += mean * runs
+        print(f"  {controller:12} {avs:>3} {mean:7.2f}", flush=True)
     print(f"floor of the full matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} "
           f"workers: {total / jobs / 60:.1f} min of SUMO alone")  # fmt: skip
 
