@@ -34,7 +34,7 @@ def test_a_pdr_certificate_reads_over_the_c_context() -> None:
     )
     # prev(state in {IDLE, WAITING}): over the context before the step, or at the first step over that same one
     assert (
-        "\\at(cp->first, Pre) != 0) ? mlca_t_l_prev0(\\at(*cp, Pre), i, p) : (\\at(cp->prev0, Pre) != 0)" in x.invariant
+        "\\at(cp->first, Pre) != 0) ? mlca_t_lprev0(\\at(*cp, Pre), i, p) : (\\at(cp->prev0, Pre) != 0)" in x.invariant
     )
     assert x.invariant.endswith("==> (c.need_age > p.T_MIN))")
 

@@ -32,19 +32,19 @@ static double mlca_t_div(double a, double b) { return a / b; }
  * symbol is the one goal left unproved for it, and the exhaustive and sequence checks compare that C bit for bit
  * with the spec's semantics instead. */
 /*@ axiomatic mlca_t_binary64_shape2 {
-  @   predicate mlca_t_l_shape2(double s__0, double s__1, double s__2, double s__3, double s__4, mlca_t_params_t p);
+  @   predicate mlca_t_lshape2(double s__0, double s__1, double s__2, double s__3, double s__4, mlca_t_params_t p);
   @ }
   @*/
 /*@ predicate mlca_t_l_L(mlca_t_inputs_t i, mlca_t_params_t p) =
-  @   mlca_t_l_shape2(i.gap_lead_left, i.v, i.v_lead_left, i.gap_follow_left, i.v_follow_left, p);
+  @   mlca_t_lshape2(i.gap_lead_left, i.v, i.v_lead_left, i.gap_follow_left, i.v_follow_left, p);
   @*/
 /*@ predicate mlca_t_l_R(mlca_t_inputs_t i, mlca_t_params_t p) =
-  @   mlca_t_l_shape2(i.gap_lead_right, i.v, i.v_lead_right, i.gap_follow_right, i.v_follow_right, p);
+  @   mlca_t_lshape2(i.gap_lead_right, i.v, i.v_lead_right, i.gap_follow_right, i.v_follow_right, p);
   @*/
 /*@ predicate mlca_t_l_W(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((!(i.U != 0)) && (c.waited < p.T_MIN));
   @*/
-/*@ predicate mlca_t_l_prev0(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ predicate mlca_t_lprev0(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((c.mode == MLCA_T_IDLE) || (c.mode == MLCA_T_WAITING));
   @*/
 /* when1: reset */
@@ -153,7 +153,7 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @   : (n.mode == (k == 1 ? MLCA_T_IDLE : k == 2 ? MLCA_T_MOVING_LEFT : k == 3 ? MLCA_T_MOVING_RIGHT : k == 4 ? MLCA_T_WAITING : k == 5 ? MLCA_T_MOVING_LEFT : k == 6 ? MLCA_T_MOVING_RIGHT : k == 7 ? MLCA_T_IDLE : k == 8 ? MLCA_T_IDLE : c.mode)
   @     && n.waited == (k == 1 ? 0 : k == 4 ? 1 : ((1000 < (c.waited + 1)) ? 1000 : (c.waited + 1)))
   @     && n.need_age == (((i.N != 0) ? ((1000 < (c.need_age + 1)) ? 1000 : (c.need_age + 1)) : 0))
-  @     && ((n.prev0 != 0) <==> mlca_t_l_prev0(n, i, p))
+  @     && ((n.prev0 != 0) <==> mlca_t_lprev0(n, i, p))
   @     && n.first == 0);
   @*/
 /*@ predicate mlca_t_outputs_l(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, mlca_t_outputs_t o) =
@@ -178,7 +178,7 @@ bool mlca_t_params_valid(const mlca_t_params_t *p)
 /* One rule for L, R: s__0 >= max(MIN_GAP, s__1 * RHO + ACCEL_MAX * RHO * RHO / 2 + (s__1 + RHO * ACCEL_MAX) * (s__1 + RHO * ACCEL_MAX) / (2 * BRAKE_MIN) - s__2 * s__2 / (2 * BRAKE_MAX)) and s__3 >= max(MIN_GAP, s__4 * RHO + ACCEL_MAX * RHO * RHO / 2 + (s__4 + RHO * ACCEL_MAX) * (s__4 + RHO * ACCEL_MAX) / (2 * BRAKE_MIN) - s__1 * s__1 / (2 * BRAKE_MAX)) */
 /*@ requires \valid_read(p);
   @ assigns \nothing;
-  @ ensures binary64: ((\result != 0) <==> mlca_t_l_shape2(s__0, s__1, s__2, s__3, s__4, *p));
+  @ ensures binary64: ((\result != 0) <==> mlca_t_lshape2(s__0, s__1, s__2, s__3, s__4, *p));
   @*/
 static bool mlca_t_shape2(double s__0, double s__1, double s__2, double s__3, double s__4, const mlca_t_params_t *p)
 {
@@ -228,7 +228,7 @@ static bool mlca_t_def_W(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const 
 /* prev0: state in {IDLE, WAITING} */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
   @ assigns \nothing;
-  @ ensures ((\result != 0) <==> mlca_t_l_prev0(*c, *i, *p));
+  @ ensures ((\result != 0) <==> mlca_t_lprev0(*c, *i, *p));
   @*/
 static bool mlca_t_reg0(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p)
 {

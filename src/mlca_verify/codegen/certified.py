@@ -185,7 +185,7 @@ def invariant_text(lowering: AcslLowering, expr: Expr, prev_index: Mapping[Prev,
     prevs: dict[Prev, str] = {}
     for prev in prevs_of(expr):
         k = prev_index[prev]
-        fresh = f"{prefix}_l_prev{k}(\\at(*cp, Pre), i, p)"
+        fresh = f"{prefix}_lprev{k}(\\at(*cp, Pre), i, p)"
         if lowering.type_of(prev.arg) == "bool":
             prevs[prev] = f"((\\at(cp->first, Pre) != 0) ? {fresh} : (\\at(cp->prev{k}, Pre) != 0))"
         else:

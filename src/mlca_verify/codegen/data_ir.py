@@ -274,7 +274,7 @@ def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowerin
             f"{c.n.prefix}_shape{use.shape}({args_c}, p)",
             f"_shape{use.shape}({args_py}, p)",
             show(d.expr),
-            f"{c.n.prefix}_l_shape{use.shape}({args_l}, p)",
+            f"{c.n.prefix}_lshape{use.shape}({args_l}, p)",
         )
         return Definition(d.name, c_type(d.type), PY_TYPES[d.type], call, d.doc, d.cite, free=d.name in logic.free)
     exact = not binary64(d.expr, c.n.types)

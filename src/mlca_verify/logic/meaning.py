@@ -11,7 +11,7 @@ from typing import Literal
 
 import z3
 
-from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of
+from mlca_verify.logic.symbolic import StepInputs, System, Valuation, own, sort_of
 from mlca_verify.model import Expr, Invariant, Liveness, Machine, Num, prevs_of, show
 
 Relation = Literal["equivalent", "strengthened", "weakened", "incomparable", "unknown"]
@@ -37,7 +37,7 @@ class SharedValuation:
     def __init__(self, old: Machine, new: Machine) -> None:
         states = sorted(set(old.states) | set(new.states))
         self.index = {s: k for k, s in enumerate(states)}
-        self.mode = z3.Int("mode")
+        self.mode = z3.Int(own("mode"))
         self.systems = {id(m): self.system(m) for m in (old, new)}
 
     def system(self, m: Machine) -> System:
@@ -55,7 +55,7 @@ class SharedValuation:
         )
         variables = {v.name: z3.Const(v.name, sort_of(v.type)) for v in m.variables}
         previous = {
-            k: z3.Const(f"prev!{show(p.arg)}", sort_of(system.prev_types[k])) for k, p in enumerate(system.prevs)
+            k: z3.Const(own(f"prev:{show(p.arg)}"), sort_of(system.prev_types[k])) for k, p in enumerate(system.prevs)
         }
         return system, Valuation(self.mode, variables, inputs, system.shared_params, previous)
 

@@ -56,6 +56,12 @@ def python_value(term: z3.ExprRef) -> bool | int | float:
     return 0
 
 
+def own(name: str) -> str:
+    """The z3 name of a constant the engine defines for itself (a mode, a register, a counter, a flag). It starts
+    with '!', which no spec name holds, so a spec symbol (`<name>@<step>`) can never be one of them."""
+    return f"!{name}"
+
+
 def sort_of(kind: Type) -> z3.SortRef:
     return {"bool": z3.BoolSort(), "int": z3.IntSort(), "real": z3.RealSort()}[kind]
 
@@ -177,11 +183,11 @@ class System:
         if self.parametric:
             params = dict(self.shared_params)
         return Frame(
-            mode=z3.Int(f"mode@{tag}"),
+            mode=z3.Int(own(f"mode@{tag}")),
             variables={v.name: z3.Const(f"{v.name}@{tag}", sort_of(v.type)) for v in m.variables},
-            registers={i: z3.Const(f"prev{i}@{tag}", sort_of(t)) for i, t in enumerate(self.prev_types)},
-            counters={c.name: z3.Int(f"{c.name}@{tag}") for c in self.monitors},
-            first=z3.Bool(f"first@{tag}"),
+            registers={i: z3.Const(own(f"prev{i}@{tag}"), sort_of(t)) for i, t in enumerate(self.prev_types)},
+            counters={c.name: z3.Int(own(f"{c.name}@{tag}")) for c in self.monitors},
+            first=z3.Bool(own(f"first@{tag}")),
             params=params,
         )
 
@@ -353,10 +359,7 @@ class System:
             return self.call(expr, v)
         if isinstance(expr, Cmp):
             a, b = self.ev(expr.left, v), self.ev(expr.right, v)
-            a, b = self.unify(a, b)
-            ops = {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b, "==": a == b, "!=": a != b}
-            result: z3.ExprRef = ops[expr.op]
-            return result
+            return compare(expr.op, *self.unify(a, b))
         assert isinstance(expr, Arith)
         a, b = self.unify(self.ev(expr.left, v), self.ev(expr.right, v))
         if expr.op == "/":
@@ -409,6 +412,21 @@ class System:
         if d.type == "bool" and d.signals:
             return z3.If(z3.And(*[self.valid(s, v) for s in d.signals]), value, z3.BoolVal(d.if_invalid))
         return value
+
+
+def compare(op: str, a: z3.ExprRef, b: z3.ExprRef) -> z3.ExprRef:
+    """`a op b`, built for that operator alone (booleans have `==` and `!=` but no order)."""
+    if op == "==":
+        return a == b
+    if op == "!=":
+        return a != b
+    ops: dict[str, Callable[[z3.ExprRef, z3.ExprRef], z3.ExprRef]] = {
+        "<": lambda x, y: x < y,
+        "<=": lambda x, y: x <= y,
+        ">": lambda x, y: x > y,
+        ">=": lambda x, y: x >= y,
+    }
+    return ops[op](a, b)
 
 
 def substitution(pairs: list[tuple[z3.ExprRef, z3.ExprRef]]) -> Callable[[z3.ExprRef], z3.ExprRef]:

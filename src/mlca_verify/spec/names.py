@@ -55,6 +55,12 @@ PYTHON_ATTRIBUTES = frozenset(
 )
 
 
+# Members the generated context holds for itself beside a machine's variables: the mode, the first-step flag and
+# the prev() registers (prev0, prev1, ...).
+CONTEXT_MEMBERS = frozenset({"mode", "first"})
+_REGISTER = re.compile(r"prev[0-9]+")
+
+
 def _language_clash(name: str) -> str | None:
     if keyword.iskeyword(name):
         return "is a Python keyword"
@@ -86,6 +92,8 @@ def clash(name: str, role: str, machine: str = "") -> str | None:
         return f"clashes with an attribute of {holder}"
     if role == "input" and machine and name in {f"{machine.upper()}_{suffix}" for suffix in GENERATED_STATE_SUFFIXES}:
         return f"clashes with the macro {name} of the generated C header"
+    if role == "variable" and (name in CONTEXT_MEMBERS or _REGISTER.fullmatch(name)):
+        return f"clashes with the member '{name}' that the generated context holds for itself; rename the variable"
     if role == "state" and name in GENERATED_STATE_SUFFIXES:
         return f"clashes with the generated C name <MACHINE>_{name}"
     return None

@@ -28,6 +28,7 @@ from mlca_verify.logic.symbolic import (
     System,
     Valuation,
     input_only,
+    own,
     python_value,
     value_of,
 )
@@ -135,7 +136,7 @@ class Unrolling:
         k = len(self.inputs)
         i, post = self.system.inputs(str(k)), self.system.frame(str(k + 1))
         link, terms = self.system.step(self.frames[k], i, post)
-        act = z3.Bool(f"act@{k}")
+        act = z3.Bool(own(f"act@{k}"))
         bounds = signal_bounds(self.system, i)
         self.solver.add(z3.Implies(act, z3.And(link, self.system.assumptions(self.frames[k], i), *bounds)))
         self.frames.append(post)
