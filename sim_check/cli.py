@@ -9,6 +9,7 @@ import argparse
 import importlib.util
 import itertools
 import math
+import re
 import sys
 import tempfile
 from collections.abc import Callable, Sequence
@@ -35,19 +36,15 @@ MAX_JOBS = 64
 MAX_AVS = int(LIMITS["avs"][1])
 
 
-def _whole(text: str, low: int, high: int) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if not low <= value <= high:
-        raise argparse.ArgumentTypeError(f"must be from {low} to {high}, got {text}")
-    return value
+_bounded = cli_base.whole_number
+_RAY_ADDRESS = re.compile(r"(?:ray://)?[A-Za-z0-9][A-Za-z0-9.\-]{0,252}:[0-9]{1,5}|auto")
 
 
-def _bounded(low: int, high: int) -> Callable[[str], int]:
-    """An argparse type: a whole number from `low` to `high`."""
-    return lambda text: _whole(text, low, high)
+def _ray_address(text: str) -> str:
+    """An argparse type: a Ray cluster's address, host:port (or ray://host:port, or auto)."""
+    if not _RAY_ADDRESS.fullmatch(text):
+        raise argparse.ArgumentTypeError(f"not a Ray address (host:port): {text[:60]!r}")
+    return text
 
 
 def _seconds(text: str) -> float:
@@ -86,7 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--retry-failed", action="store_true", help="with --resume: run the failed runs again")
     sweep.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's)")
     sweep.add_argument("--timeout", type=_seconds, default=600.0, help="seconds before a run is declared hung")
-    sweep.add_argument("--ray", metavar="ADDRESS", help="run on the Ray cluster at ADDRESS (host:port) instead")
+    sweep.add_argument(
+        "--ray", type=_ray_address, metavar="ADDRESS", help="run on the Ray cluster at ADDRESS (host:port) instead"
+    )
     report = sub.add_parser("report", help="figures and report.md beside the paper's values, from a results database")
     report.add_argument("--db", type=Path, required=True, help="results database (SQLite) written by sweep")
     report.add_argument("--out", type=Path, required=True, help="folder for the figures (PNG, SVG) and report.md")

@@ -15,7 +15,18 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify import __version__, ci_formats, cli_base, report
-from mlca_verify.cli_base import EXIT_FINDING, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, Parser, write_json, write_text
+from mlca_verify.cli_base import (
+    DEPTH_LIMIT,
+    EXIT_FINDING,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_USAGE,
+    TIMEOUT_LIMIT_MS,
+    Parser,
+    whole_number,
+    write_json,
+    write_text,
+)
 from mlca_verify.codegen import drift, foreign, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import CheckOutcome
@@ -37,12 +48,15 @@ from mlca_verify.model import show
 from mlca_verify.regress import transition_changes, verdict_changes
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
-from mlca_verify.spec.meaning import WITHIN_LIMIT
 from mlca_verify.testgen.command import tests as run_tests
-from mlca_verify.testgen.suite import DEPTH, MAX_DEPTH
+from mlca_verify.testgen.suite import DEPTH
 from mlca_verify.tools import run
 
 __all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
+
+
+DEPTH_ARG = whole_number(1, DEPTH_LIMIT)
+TIMEOUT_ARG = whole_number(1, TIMEOUT_LIMIT_MS)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -59,11 +73,19 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="prove the properties of machines with data for every param value in its range (not only the default)",
     )
-    check.add_argument("--depth", type=int, default=60, metavar="N", help="steps BMC searches for a counterexample")
+    check.add_argument(
+        "--depth",
+        type=DEPTH_ARG,
+        default=60,
+        metavar="N",
+        help=f"steps BMC searches for a counterexample (1 to {DEPTH_LIMIT})",
+    )
     check.add_argument("--require-cites", action="store_true", help="report every spec element that cites no source")
     check.add_argument("--only", metavar="IDS", help="comma-separated property names to report (others are hidden)")
     check.add_argument("--quiet", action="store_true", help="print only the one-line summary per spec")
-    check.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
+    check.add_argument(
+        "--timeout-ms", type=TIMEOUT_ARG, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query"
+    )
     check.add_argument("--junit", metavar="FILE", help="also write JUnit XML: one test case per property")
     check.add_argument("--sarif", metavar="FILE", help="also write SARIF 2.1.0: findings at their spec lines")
     check.add_argument("--emit-tests", metavar="DIR", help="write a pytest and a C test replaying each violation")
@@ -76,7 +98,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     diff.add_argument("left", metavar="OLD", help="the spec before the change")
     diff.add_argument("right", metavar="NEW", help="the spec after the change")
-    diff.add_argument("--timeout-ms", type=int, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
+    diff.add_argument("--timeout-ms", type=TIMEOUT_ARG, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
     _allow_outside(diff)
 
     gen = sub.add_parser("gen", help="generate Python and C99 code from specs (or check generated/ for drift)")
@@ -93,7 +115,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     conform.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.conform/1)")
     conform.add_argument("--only", metavar="CHECKS", help=f"comma-separated subset of: {', '.join(CHECKS)}")
-    conform.add_argument("--sequences", type=int, default=200, help="random input sequences to run (default 200)")
+    conform.add_argument(
+        "--sequences", type=whole_number(1, 100_000), default=200, help="random input sequences to run (default 200)"
+    )
 
     diagram = sub.add_parser("diagram", help="draw a machine: Graphviz DOT, Mermaid, W3C SCXML, or SVG")
     diagram.add_argument("spec", metavar="SPEC", help="spec file")
@@ -136,7 +160,9 @@ def _tests_parser(sub: Any) -> None:
     tests.add_argument("specs", nargs="+", metavar="SPEC", help="spec files")
     tests.add_argument("--out", required=True, metavar="DIR", help="output folder (one subfolder per machine)")
     tests.add_argument("--generated", default="generated", metavar="DIR", help="where the code is (default: generated)")
-    tests.add_argument("--depth", type=int, default=DEPTH, help=f"the longest run searched (default {DEPTH})")
+    tests.add_argument(
+        "--depth", type=DEPTH_ARG, default=DEPTH, help=f"the longest run searched (default {DEPTH}, 1 to {DEPTH_LIMIT})"
+    )
     tests.add_argument("--no-coverage", action="store_true", help="write and run the suite, measure nothing")
     tests.add_argument("--no-target", action="store_true", help="do not run the suite on the Cortex-M4 under QEMU")
 
@@ -169,7 +195,7 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
 def cmd_check(args: argparse.Namespace) -> int:
     loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
-    limits = Limits(depth=max(1, min(args.depth, WITHIN_LIMIT)), timeout_ms=args.timeout_ms)
+    limits = Limits(depth=args.depth, timeout_ms=args.timeout_ms)
     missing: list[tuple[str, Loc, str]] = []
     for spec in loaded:
         if args.require_cites:
@@ -356,8 +382,6 @@ def svg_of(dot_text: str) -> str:
 
 
 def cmd_tests(args: argparse.Namespace) -> int:
-    if not 1 <= args.depth <= MAX_DEPTH:
-        raise UsageError(f"error: --depth must lie in [1, {MAX_DEPTH}], not {args.depth}")
     specs = [load_spec(p, compare=False) for p in args.specs]
     ok = True
     for spec in specs:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import traceback
 from collections.abc import Callable, Mapping, Sequence
@@ -31,6 +32,24 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         raise UsageError(f"{self.prog}: error: {message}")
+
+
+DEPTH_LIMIT = 1_000  # steps of a search: `check --depth` and `tests --depth` alike
+TIMEOUT_LIMIT_MS = 3_600_000  # one solver query
+
+
+def whole_number(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: a whole number from `low` to `high`, written in digits (no exponent, no fraction)."""
+
+    def parse(text: str) -> int:
+        if not re.fullmatch(r"\s*[+-]?[0-9]{1,19}\s*", text):
+            raise argparse.ArgumentTypeError(f"not a whole number: {text[:40]!r}")
+        value = int(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be from {low} to {high}, got {text.strip()}")
+        return value
+
+    return parse
 
 
 def write_text(path: str, text: str) -> None:

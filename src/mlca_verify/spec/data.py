@@ -33,6 +33,7 @@ from mlca_verify.spec.locate import KeyPath, Locator
 from mlca_verify.spec.types import Symbol, literal_value, parse_unit, show_unit
 
 NUMBER_LIMIT = Fraction(10) ** 15  # the largest magnitude of a param, range end or initial value
+MAX_CHAIN = 64  # definitions in a chain, each reading the next
 DATA_SECTIONS = ("params", "signals", "variables", "definitions", "outputs", "assume")
 _ASSIGNMENT = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*=(?!=)")
 
@@ -243,12 +244,28 @@ class DataBuilder:
         for name in items:
             self.env[name] = Symbol("pending", "bool", ())
         done: dict[str, Definition] = {}
-        for name in self.order(items):
+        ordered, reads = self.order(items)
+        self.chain_depth(ordered, reads)
+        for name in ordered:
             done[name] = self.definition(name, items[name])
         return tuple(done[name] for name in items)
 
-    def order(self, items: dict[str, Any]) -> list[str]:
-        """The definitions, each after those it reads; a cycle is an error at the definition that closes it."""
+    def chain_depth(self, ordered: list[str], reads: dict[str, set[str]]) -> None:
+        """Refuse a chain of definitions, each reading the next, longer than MAX_CHAIN (every engine and the
+        generated code would nest that deep)."""
+        depth: dict[str, int] = {}
+        for name in ordered:
+            depth[name] = 1 + max((depth[r] for r in reads[name]), default=0)
+            if depth[name] > MAX_CHAIN:
+                raise self.fail(
+                    ("definitions", name, "expr"),
+                    f"definition '{name}' ends a chain of {depth[name]} definitions each reading the next "
+                    f"(at most {MAX_CHAIN})",
+                )
+
+    def order(self, items: dict[str, Any]) -> tuple[list[str], dict[str, set[str]]]:
+        """The definitions, each after those it reads, and what each reads; a cycle is an error at the
+        definition that closes it."""
         reads = {name: self.mentions(item["expr"], items) for name, item in items.items()}
         ordered: list[str] = []
         state: dict[str, int] = {}
@@ -270,7 +287,7 @@ class DataBuilder:
                 elif not state.get(nxt):
                     state[nxt] = 1
                     stack.append((nxt, iter(sorted(reads[nxt]))))
-        return ordered
+        return ordered, reads
 
     def mentions(self, text: str, items: dict[str, Any]) -> set[str]:
         try:

@@ -71,6 +71,7 @@ _KEYWORDS = {"and", "or", "not", "true", "false", "state", "in", "if", "then", "
 _FUNCTIONS = {"min", "max", "abs", "valid"}
 _COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
 MAX_EXPONENT = 300  # a literal's exponent: keeps exact arithmetic on it small
+MAX_DIGITS = 40  # a literal's digits: more than binary64 (17) or a 64-bit integer (19) can tell apart
 
 
 def tokenize(text: str) -> list[Token]:
@@ -341,6 +342,8 @@ def parse_full(text: str) -> Parsed:
 def number(tok: Token) -> Num:
     """A literal, exact: `0.1` is one tenth."""
     mantissa, _, exponent = tok.text.lower().partition("e")
+    if len(mantissa) > MAX_DIGITS + 1 or len(exponent) > 5:
+        raise ParseError(tok.offset, f"number {tok.text[:30]!r}... has more than {MAX_DIGITS} digits")
     if exponent and abs(int(exponent)) > MAX_EXPONENT:
         raise ParseError(tok.offset, f"number {tok.text[:30]!r} has an exponent beyond {MAX_EXPONENT}")
     return Num(Fraction(mantissa) * Fraction(10) ** int(exponent or 0), real="." in tok.text or bool(exponent))

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
+from fractions import Fraction
 from typing import Any, cast
 
 from mlca_verify.errors import Loc, SpecError
+from mlca_verify.intervals import Interval, enclose
 from mlca_verify.model import (
     ANY_STATE,
     Comparison,
@@ -17,6 +19,7 @@ from mlca_verify.model import (
     Liveness,
     Machine,
     Otherwise,
+    Param,
     Prev,
     Semantics,
     Transition,
@@ -53,6 +56,11 @@ OTHERWISE = ("stay", "undefined")
 VERDICTS = ("holds", "violated")
 
 LoadOther = Callable[[str, Loc], Machine]
+
+
+def param_intervals(params: tuple[Param, ...]) -> dict[str, Interval]:
+    """Each param's values in a proof: its range, or its default when it has none."""
+    return {p.name: Interval(*p.range) if p.range is not None else Interval.point(p.default) for p in params}
 
 
 def _quoted(text: str, limit: int = 60) -> str:
@@ -131,6 +139,7 @@ class MeaningChecker:
         inputs = self.inputs()
         b = self.builder
         params, signals = b.params(), b.signals()
+        self.param_ranges = param_intervals(params)
         b.declare_variables()
         definitions = b.definitions()
         variables = b.variables()
@@ -395,7 +404,15 @@ class MeaningChecker:
             within = int(within)  # a constant: the same bound as the number itself
         if isinstance(within, str):
             self.data = True
-            return None, self.typed((*path, "within"), within, "bound")[0]
+            bound = self.typed((*path, "within"), within, "bound")[0]
+            values = enclose(bound, self.param_ranges)
+            if not values.within(Fraction(1), Fraction(WITHIN_LIMIT)):
+                raise self.fail(
+                    (*path, "within"),
+                    f"'within' must be from 1 to {WITHIN_LIMIT} steps for every param value in range; "
+                    f"{_quoted(within.strip()[:40])} may take values in {values}",
+                )
+            return None, bound
         if within is not None and not 1 <= within <= WITHIN_LIMIT:
             raise self.fail(
                 (*path, "within"), f"'within' must be a number of steps from 1 to {WITHIN_LIMIT}, got {within}"
