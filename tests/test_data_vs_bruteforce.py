@@ -383,7 +383,9 @@ def compare(machine: Machine, results: list[Result], tally: Counter[str]) -> Non
     """Assert the engine's `results` agree with the explorer on `machine`; count verdicts in `tally`."""
     ex = DataExplorer(machine)
     brute: dict[str, Verdict] = ex.verdicts()
-    engine = {r.prop: r for r in results}
+    # ovf: checks are about the code's 64 bits, which the explorer does not model (tests/test_carry.py checks
+    # them against the C code under UBSan)
+    engine = {r.prop: r for r in results if r.kind != "overflow"}
     assert set(brute) == set(engine), (sorted(brute), sorted(engine))
     for prop, expected in brute.items():
         result = engine[prop]

@@ -43,7 +43,26 @@ QUERY_TIMEOUT_MS = "2000"
 # named here are ERROR. Whenever `gen` accepts a file, the generated code must import and compile.
 # `gen` does not load the specs named in [[compare]], so a bad one there is an ERROR of `check` only.
 # A string `within` is a bound over params (machines with data); "3" is the bound 3.
-VALID_FILES = frozenset({"valid_toy", "compare_with_self", "type_within_string"})
+VALID_FILES = frozenset(
+    {
+        "valid_toy",
+        "compare_with_self",
+        "type_within_string",
+        # the engine's and the generated code's own names, where they cannot clash, and arithmetic traps: each is
+        # checked (with a caveat, an ovf: or div: finding where the code's arithmetic parts from the reals)
+        "namespace_input_first",
+        "namespace_signal_mode",
+        "namespace_variable_respond",
+        "namespace_definition_shape0",
+        "namespace_definition_prev0",
+        "within_K_plus_1",
+        "trap_decimal_timer",
+        "trap_int_square",
+        "trap_int_signal_product",
+        "trap_divide_by_zero",
+        "trap_boolean_equality",
+    }
+)
 EITHER_FILES = frozenset(
     {
         "property_id_equiv",
@@ -193,7 +212,8 @@ spec = importlib.util.spec_from_file_location("fuzzed_fsm", sys.argv[1])
 module = importlib.util.module_from_spec(spec)
 sys.modules[spec.name] = module
 spec.loader.exec_module(module)
-module.step(module.INITIAL, module.Inputs(**{f: False for f in module.Inputs.__dataclass_fields__}))
+inputs = module.Inputs(**{f: False for f in module.Inputs.__dataclass_fields__})
+module.step(module.Context(), inputs) if hasattr(module, "Context") else module.step(module.INITIAL, inputs)
 """
 
 
@@ -291,6 +311,18 @@ def _deep_guard(prefix: str, suffix: str, depth: int) -> bytes:
     return TOY.replace('when = "y"', f'when = "{prefix * depth}y{suffix * depth}"', 1).encode()
 
 
+def _chain(length: int) -> bytes:
+    """A machine whose guard reads a chain of definitions, each reading the next, `length + 1` long."""
+    text = (CORPUS / "namespace_input_first.toml").read_text(encoding="utf-8")
+    chain = "\n".join(f'c{k} = {{ expr = "c{k + 1} + 1", doc = "d" }}' for k in range(length))
+    chain += f'\nc{length} = {{ expr = "n", doc = "d" }}\n'
+    return (
+        text.replace("[definitions]\n", "[definitions]\n" + chain)
+        .replace("first and n > 2", "first and c0 > 70")
+        .encode()
+    )
+
+
 BIG_CASES: dict[str, tuple[str, Callable[[], bytes]]] = {
     "transitions_2000_from_one_state": (EITHER, _many_transitions),
     "huge_doc_1mb": (EITHER, _with_huge_doc),
@@ -301,6 +333,8 @@ BIG_CASES: dict[str, tuple[str, Callable[[], bytes]]] = {
     "deep_toml_array_100000": (ERROR, lambda: TOY.replace('["A", "B"]', "[" * 100_000 + "]" * 100_000, 1).encode()),
     "zero_bytes_64mb": (ERROR, lambda: bytes(64 << 20)),
     "comment_16mb": (EITHER, lambda: TOY.encode() + b"#" + b"c" * (16 << 20) + b"\n"),
+    "chain_300_definitions": (ERROR, lambda: _chain(300)),
+    "chain_64_definitions": (VALID, lambda: _chain(63)),
     "newlines_16mb": (EITHER, lambda: TOY.encode() + b"\n" * (16 << 20)),
 }
 

@@ -24,6 +24,9 @@ RULES = {
     "liveness": "A declared response property fails on some run.",
     "equivalence": "Two machines behave differently on some input sequence.",
     "range": "A variable leaves its declared range.",
+    "division": "A divisor can be zero where its value is used.",
+    "overflow": "An int value can leave the generated code's 64 bits.",
+    "binary64": "A verdict decided over the reals is not shown to hold for the code's binary64 arithmetic.",
     "lemma": "A declared lemma over the definitions fails for some values in range.",
     "citation": "A spec element cites no source (check --require-cites).",
 }
@@ -57,7 +60,8 @@ def _located(rule: str, level: str, text: str, path: str, loc: Loc) -> dict[str,
 
 def _message(r: Result) -> str:
     text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}"
-    return f"{text}. {r.detail}" if r.detail else text
+    text = f"{text}. {r.detail}" if r.detail else text
+    return f"{text}. Caveat: {r.caveat}" if r.caveat else text
 
 
 def _xml_safe(root: ET.Element) -> None:
@@ -110,11 +114,11 @@ def sarif(checked: Sequence[Checked], uncited_elements: Sequence[tuple[str, Loc,
     results: list[dict[str, Any]] = []
     for path, machine, checked_results in checked:
         for r in checked_results:
-            if r.verdict == "holds":
+            if r.verdict == "holds" and not r.caveat:
                 continue
             loc = element_loc(machine, r.prop)
             entry: dict[str, Any] = {
-                "ruleId": r.kind,
+                "ruleId": r.kind if r.verdict != "holds" else "binary64",
                 "level": "error" if not r.ok else "note",
                 "message": {"text": _message(r)},
                 "locations": [
@@ -128,7 +132,7 @@ def sarif(checked: Sequence[Checked], uncited_elements: Sequence[tuple[str, Loc,
                 ],
                 "properties": {"verdict": r.verdict, "expected": r.expected, "cite": r.cite},
             }
-            if r.ok:
+            if r.ok and r.verdict != "holds":
                 entry["suppressions"] = [{"kind": "inSource", "justification": f'expect = "{r.expected}" in the spec'}]
             results.append(entry)
     for path, where, what in uncited_elements:

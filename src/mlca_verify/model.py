@@ -458,7 +458,7 @@ class Machine:
     params: tuple[Param, ...] = ()
     signals: tuple[Signal, ...] = ()
     variables: tuple[Variable, ...] = ()
-    definitions: tuple[Definition, ...] = ()
+    definitions: tuple[Definition, ...] = ()  # each after the definitions it reads
     outputs: tuple[Output, ...] = ()
     assumptions: tuple[Assumption, ...] = ()
     step_s: Fraction | None = None
@@ -494,3 +494,20 @@ def stateful_definitions(definitions: Iterable[Definition], variables: Iterable[
         ):
             found.add(d.name)
     return frozenset(found)
+
+
+def name_types(m: Machine) -> dict[str, Type]:
+    """The type of every numeric or boolean name of a machine but its boolean inputs (see `type_of`)."""
+    found: dict[str, Type] = {p.name: p.type for p in m.params}
+    found.update({v.name: v.type for v in m.variables})
+    found.update({s.name: s.type for s in m.signals})
+    found.update({d.name: d.type for d in m.definitions})
+    found.update({o.name: o.type for o in m.outputs})
+    return found
+
+
+def bodies(m: Machine) -> dict[str, Expr]:
+    """The expression of each definition (in dependency order) and then of each output."""
+    found = {d.name: d.expr for d in m.definitions}
+    found.update({o.name: o.expr for o in m.outputs})
+    return found

@@ -108,7 +108,7 @@ def results_text(
 ) -> str:
     rows = []
     for r in results:
-        status = "ok" if r.ok else "UNEXPECTED"
+        status = ("ok" if r.ok else "UNEXPECTED") + (" (reals)" if r.caveat else "")
         rows.append([r.prop, r.kind, r.verdict, r.expected, status, _clip(r.cite, CITE_WIDTH)])
     parts = [
         f"{terminal(spec_path)} ({machine})",
@@ -123,6 +123,10 @@ def results_text(
             parts.append(trace_text(r.counterexample, inputs))
         elif r.verdict != "holds":
             parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
+    caveats = [r for r in results if r.caveat]
+    if caveats:
+        parts.append("\n  (reals): decided over the reals, not shown for the generated code's binary64:")
+        parts += [f"    {r.prop}: {terminal(_clip(r.caveat, 200))}" for r in caveats]
     return "\n".join(parts)
 
 
@@ -132,6 +136,9 @@ def summary_text(results: Sequence[Result]) -> str:
     line = (
         f"{len(results)} properties: {counts['holds']} hold, {counts['violated']} violated, {counts['unknown']} unknown"
     )
+    reals = sum(1 for r in results if r.caveat)
+    if reals:
+        line += f" ({reals} over the reals only)"
     if bad:
         return line + f"; {len(bad)} not as expected: " + ", ".join(r.prop for r in bad)
     return line + "; all as expected"

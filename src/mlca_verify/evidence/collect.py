@@ -191,6 +191,8 @@ def proof(r: Result) -> dict[str, Any]:
     }
     if r.proof is not None:  # a machine with data: how it was decided
         found["proof"] = r.proof.to_json()
+    if r.caveat:
+        found["caveat"] = r.caveat
     return found
 
 
@@ -546,7 +548,8 @@ def _how(r: Result) -> str:
     text = pr.engine + (f", k = {pr.k}" if pr.k is not None else "")
     if pr.certificate is not None:
         text += ", certificate " + ("confirmed by a separate query" if pr.certificate_checked else "NOT confirmed")
-    return text + (", for every param value in range" if pr.parametric else ", at the params' defaults")
+    text += ", for every param value in range" if pr.parametric else ", at the params' defaults"
+    return text + (f"; {r.caveat}" if r.caveat else "")
 
 
 def data_argument(ev: Evidence) -> list[dict[str, Any]]:

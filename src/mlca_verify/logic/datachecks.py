@@ -9,9 +9,11 @@ from functools import partial
 
 import z3
 
+from mlca_verify.logic.binary64 import Rounding
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
+from mlca_verify.logic.sites import INT64, OverflowSite, Site, division_sites, divisions, overflow_sites, undivided
 from mlca_verify.logic.symbolic import (
     Frame,
     Monitor,
@@ -24,7 +26,6 @@ from mlca_verify.logic.symbolic import (
     value_of,
 )
 from mlca_verify.model import (
-    Arith,
     Call,
     Expr,
     Invariant,
@@ -54,6 +55,7 @@ class Job:
     cite: str
     run: Callable[[], Decision]
     parametric: bool
+    exprs: tuple[Expr, ...] = ()  # what the property reads beside the step (for the binary64 and division cones)
 
 
 class DataChecker:
@@ -67,6 +69,7 @@ class DataChecker:
         self.assumed = tuple(a.id for a in machine.assumptions)
         self._cover: dict[str, Path] | None = None
         self._systems: dict[tuple[object, ...], System] = {}
+        self._rounding: dict[bool, Rounding] = {}
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -112,7 +115,21 @@ class DataChecker:
                 assumptions=self.assumed,
                 notes=tuple(search.notes) + ((search.reason,) if search.reason else ()),
             )
-        return Result(job.prop, job.kind, verdict, job.expected, job.cite, seconds, trace, detail, proof)
+        caveat = self.caveat(job, verdict, search)
+        return Result(job.prop, job.kind, verdict, job.expected, job.cite, seconds, trace, detail, proof, caveat)
+
+    def caveat(self, job: Job, verdict: Verdict, search: Search | None) -> str:
+        """Why a verdict decided over the reals may not hold for the code's binary64, or "" when it does."""
+        if verdict == "unknown" or search is None or job.kind == "lemma":
+            return ""
+        if job.parametric not in self._rounding:
+            self._rounding[job.parametric] = Rounding(self.m, job.parametric)
+        proved = search is not None and search.answer == "unreachable" and not search.on_real
+        abstracted = self.abstractable if proved and not _reads_validity(*job.exprs) else frozenset()
+        fault = self._rounding[job.parametric].at_fault(job.exprs, abstracted)
+        if fault is None:
+            return ""
+        return f"{verdict} over the reals; not shown for binary64: {fault} may go either way under rounding"
 
     def trace(self, path: Path) -> Counterexample:
         model, system = path.model, path.system
@@ -175,9 +192,10 @@ class DataChecker:
                 "first-match: the first enabled transition in file order fires",
             )
         ]
-        for job in self.jobs():
+        jobs = self.jobs()
+        for job in jobs:
             results.append(self.result(job))
-        return results
+        return [*results[:1], *undivided(m, jobs, results[1:])]
 
     def jobs(self) -> list[Job]:
         """Every check but determinism, in report order."""
@@ -196,15 +214,21 @@ class DataChecker:
             for v in m.variables
             if v.range is not None
         ]
-        for name, exprs, post in division_sites(m):
-            prop = f"div:{name}"
-            jobs.append(Job(prop, "division", m.expected(prop), m.cite, partial(self.division, name, exprs, post), p))
+        for site in division_sites(m):
+            prop = f"div:{site.name}"
+            run = partial(self.division, site)
+            jobs.append(Job(prop, "division", m.expected(prop), m.cite, run, p, site.exprs))
+        for risky in overflow_sites(m):
+            prop = f"ovf:{risky.site.name}"
+            run = partial(self.overflow, risky)
+            jobs.append(Job(prop, "overflow", m.expected(prop), m.cite, run, p, risky.site.exprs))
         for inv in m.invariants:
             q = p or inv.parametric
-            jobs.append(Job(inv.id, "invariant", inv.expect, inv.cite, partial(self.invariant, inv, q), q))
+            jobs.append(Job(inv.id, "invariant", inv.expect, inv.cite, partial(self.invariant, inv, q), q, (inv.expr,)))
         for live in m.liveness:
             q = p or live.parametric
-            jobs.append(Job(live.id, "liveness", live.expect, live.cite, partial(self.liveness, live, q), q))
+            exprs = (live.assume, live.goal) + ((live.bound,) if live.bound is not None else ())
+            jobs.append(Job(live.id, "liveness", live.expect, live.cite, partial(self.liveness, live, q), q, exprs))
         for lem in m.lemmas:
             q = p or lem.parametric
             jobs.append(Job(lem.id, "lemma", lem.expect, lem.cite, partial(self.lemma, lem, q), q))
@@ -289,21 +313,39 @@ class DataChecker:
 
         return self.violation(self.search((), bad, parametric=self.parametric), f"{name} leaves [{low}, {high}]")
 
-    def division(self, name: str, exprs: tuple[Expr, ...], post: bool) -> Decision:
-        """Can a divisor in `name` be zero where its value is used? Definitions are read both before the step
+    def division(self, site: Site) -> Decision:
+        """Can a divisor in `site` be zero where its value is used? Definitions are read both before the step
         (by guards) and after it (by properties); a boolean definition's samples must be valid to be read."""
-        divisors = [d.right for e in exprs for d in _divisions(e)]
-        definition = next((d for d in self.m.definitions if d.name == name), None)
-        signals = definition.signals if definition is not None else ()
+        divisors = tuple(d.right for e in site.exprs for d in divisions(e))
+        found = self.search(site.exprs, self.at_site(site, divisors, lambda t: t == 0), parametric=self.parametric)
+        return self.violation(found, f"a divisor in {site.name} can be zero")
 
-        def zero(s: System, v: Valuation) -> z3.BoolRef:
-            hit = z3.Or(*[s.ev(d, v) == 0 for d in divisors])
-            return z3.And(hit, *[s.valid(g, v) for g in signals])
+    def at_site(
+        self, site: Site, terms: tuple[Expr, ...], wrong: Callable[[z3.ExprRef], z3.BoolRef], signals: bool = False
+    ) -> Bad:
+        """A step where one of `terms` of `site`, evaluated where the code evaluates it, is `wrong`; the samples
+        of a definition valid (the code reads it only then); with `signals`, every int sample within 64 bits."""
+        definition = next((d for d in self.m.definitions if d.name == site.name), None)
+        needed = definition.signals if definition is not None else ()
+        ints = [s.name for s in self.m.signals if s.type == "int"] if signals else []
+        low, high = z3.IntVal(INT64[0]), z3.IntVal(INT64[1])
+
+        def hit(s: System, v: Valuation) -> z3.BoolRef:
+            fits = [z3.And(v.inputs.signals[n] >= low, v.inputs.signals[n] <= high) for n in ints]
+            return z3.And(z3.Or(*[wrong(s.ev(t, v)) for t in terms]), *[s.valid(g, v) for g in needed], *fits)
 
         def bad(s: System, pre: Frame, i: StepInputs, after: Frame, t: StepTerms) -> z3.BoolRef:
-            return z3.Or(zero(s, t.post), zero(s, t.pre)) if post else zero(s, t.pre)
+            where = {"pre": [t.pre], "post": [t.post], "both": [t.post, t.pre]}[site.when]
+            return z3.Or(*[hit(s, v) for v in where])
 
-        return self.violation(self.search((), bad, parametric=self.parametric), f"a divisor in {name} can be zero")
+        return bad
+
+    def overflow(self, risky: OverflowSite) -> Decision:
+        """Can an int value computed in an element leave the generated code's 64 bits where it is computed?"""
+        low, high = z3.IntVal(INT64[0]), z3.IntVal(INT64[1])
+        bad = self.at_site(risky.site, risky.nodes, lambda t: z3.Or(t < low, t > high), signals=True)
+        found = self.search(risky.site.exprs, bad, parametric=self.parametric)
+        return self.violation(found, f"an int value in {risky.site.name} leaves the 64 bits of the generated code")
 
     def violation(self, found: Search, what: str) -> Decision:
         if found.answer == "reachable" and found.path is not None:
@@ -357,21 +399,6 @@ def _fires(tid: str) -> Bad:
         return t.fired[tid]
 
     return bad
-
-
-def _divisions(expr: Expr) -> list[Arith]:
-    return [n for n in nodes(expr) if isinstance(n, Arith) and n.op == "/"]
-
-
-def division_sites(m: Machine) -> list[tuple[str, tuple[Expr, ...], bool]]:
-    """Each element that divides: its name, its expressions, and whether it is also read after the step."""
-    sites: list[tuple[str, tuple[Expr, ...], bool]] = []
-    sites += [(d.name, (d.expr,), True) for d in m.definitions]
-    sites += [(v.name, (v.every,), False) for v in m.variables if v.every is not None]
-    sites += [(t.id, (t.guard, *(u.expr for u in t.updates)), False) for t in m.transitions]
-    sites += [(o.name, (o.expr,), True) for o in m.outputs]
-    sites += [(i.id, (i.expr,), True) for i in m.invariants]
-    return [site for site in sites if any(_divisions(e) for e in site[1])]
 
 
 def check_data_machine(machine: Machine, limits: Limits, parametric: bool = False) -> list[Result]:

@@ -51,6 +51,7 @@ class Search:
     certificate_checked: bool = False
     reason: str = ""
     notes: list[str] = field(default_factory=list)
+    on_real: bool = False  # decided on the real system after an abstract counterexample proved spurious
 
 
 class Unrolling:
@@ -350,4 +351,5 @@ def refined(real: System, bad: Bad, limits: Limits, certify: bool, spurious: Sea
     """Decide again on the real system, after an abstract counterexample that no real run follows."""
     found = decide(real, real, bad, limits, certify)
     found.notes.append(f"on the real system: {spurious.reason}")
+    found.on_real = True
     return found

@@ -17,6 +17,7 @@ Kind = Literal[
     "equivalence",
     "range",
     "division",
+    "overflow",
     "lemma",
 ]
 Number = bool | int | float
@@ -118,6 +119,8 @@ class Result:
     counterexample: Counterexample | None = None
     detail: str = ""
     proof: Proof | None = None
+    # Where a verdict decided over the reals is not shown to carry over to the code's binary64 arithmetic: why.
+    caveat: str = ""
 
     @property
     def ok(self) -> bool:
@@ -135,4 +138,5 @@ class Result:
             "detail": self.detail,
             "counterexample": None if self.counterexample is None else self.counterexample.to_json(),
             **({} if self.proof is None else {"proof": self.proof.to_json()}),
+            **({"caveat": self.caveat} if self.caveat else {}),
         }

@@ -248,7 +248,7 @@ class DataBuilder:
         self.chain_depth(ordered, reads)
         for name in ordered:
             done[name] = self.definition(name, items[name])
-        return tuple(done[name] for name in items)
+        return tuple(done[name] for name in ordered)  # each after those it reads: the code defines them so
 
     def chain_depth(self, ordered: list[str], reads: dict[str, set[str]]) -> None:
         """Refuse a chain of definitions, each reading the next, longer than MAX_CHAIN (every engine and the

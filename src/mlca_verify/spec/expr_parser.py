@@ -342,7 +342,7 @@ def parse_full(text: str) -> Parsed:
 def number(tok: Token) -> Num:
     """A literal, exact: `0.1` is one tenth."""
     mantissa, _, exponent = tok.text.lower().partition("e")
-    if len(mantissa) > MAX_DIGITS + 1 or len(exponent) > 5:
+    if sum(ch.isdigit() for ch in mantissa) > MAX_DIGITS or len(exponent) > 5:
         raise ParseError(tok.offset, f"number {tok.text[:30]!r}... has more than {MAX_DIGITS} digits")
     if exponent and abs(int(exponent)) > MAX_EXPONENT:
         raise ParseError(tok.offset, f"number {tok.text[:30]!r} has an exponent beyond {MAX_EXPONENT}")

@@ -1,0 +1,129 @@
+"""Where the generated code's arithmetic can part from the engine's: the elements that divide (`div:`), those
+that compute ints which intervals cannot keep within 64 bits (`ovf:`), and the verdicts that a division by a
+divisor that can be zero leaves undecided for the code."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from typing import Literal
+
+from mlca_verify.intervals import UNBOUNDED, Interval, enclose
+from mlca_verify.logic.results import Result
+from mlca_verify.model import Arith, Call, Expr, Machine, Neg, Num, Var, bodies, name_types, nodes, type_of
+
+INT64 = (-(2**63), 2**63 - 1)  # the generated code's ints
+
+
+def divisions(expr: Expr) -> list[Arith]:
+    return [n for n in nodes(expr) if isinstance(n, Arith) and n.op == "/"]
+
+
+When = Literal["pre", "post", "both"]  # where an element is evaluated: before the step, after it, or both
+
+
+@dataclass(frozen=True)
+class Site:
+    """An element that computes: its name, its expressions, and where the code evaluates them."""
+
+    name: str
+    exprs: tuple[Expr, ...]
+    when: When
+
+
+def _sites(m: Machine) -> list[Site]:
+    sites = [Site(d.name, (d.expr,), "both") for d in m.definitions]
+    sites += [Site(v.name, (v.every,), "pre") for v in m.variables if v.every is not None]
+    sites += [Site(t.id, (t.guard, *(u.expr for u in t.updates)), "pre") for t in m.transitions]
+    sites += [Site(o.name, (o.expr,), "both") for o in m.outputs]
+    sites += [Site(i.id, (i.expr,), "post") for i in m.invariants]
+    return sites
+
+
+def division_sites(m: Machine) -> list[Site]:
+    """Each element that divides."""
+    return [site for site in _sites(m) if any(divisions(e) for e in site.exprs)]
+
+
+@dataclass(frozen=True)
+class OverflowSite:
+    site: Site
+    nodes: tuple[Expr, ...]  # the int values intervals cannot keep within 64 bits
+
+
+def int_intervals(m: Machine) -> dict[str, Interval]:
+    """Each name's values as far as ranges tell: params and variables by their ranges (the `range:` checks
+    show that variables keep to them), int signals anywhere in 64 bits (an invalid sample reaches the code too)."""
+    found: dict[str, Interval] = {}
+    for p in m.params:
+        found[p.name] = Interval(*p.range) if p.range is not None else Interval.point(p.default)
+    for v in m.variables:
+        found[v.name] = Interval(*v.range) if v.range is not None else UNBOUNDED
+    for s in m.signals:
+        found[s.name] = Interval(*(Fraction(b) for b in INT64)) if s.type == "int" else UNBOUNDED
+    kinds = name_types(m)
+    for name, body in bodies(m).items():
+        found[name] = enclose(body, found) if type_of(body, kinds) != "bool" else UNBOUNDED
+    return found
+
+
+def overflow_sites(m: Machine) -> list[OverflowSite]:
+    """The elements with an int value (an operation's result or a literal) that intervals cannot keep within
+    64 bits; each becomes an `ovf:` check. Elsewhere the code cannot overflow."""
+    kinds = name_types(m)
+    names = int_intervals(m)
+    low, high = (Fraction(b) for b in INT64)
+    result = []
+    for site in _sites(m):
+        risky = [
+            n
+            for e in site.exprs
+            for n in nodes(e)
+            if isinstance(n, Arith | Neg | Num | Call)
+            and (not isinstance(n, Call) or n.fn == "abs")
+            and not (isinstance(n, Arith) and n.op == "/")
+            and type_of(n, kinds) == "int"
+            and not enclose(n, names).within(low, high)
+        ]
+        if risky:
+            result.append(OverflowSite(site, tuple(dict.fromkeys(risky))))
+    return result
+
+
+def _reads(m: Machine, exprs: Sequence[Expr]) -> set[str]:
+    """The names `exprs` read, through definitions and outputs."""
+    body = bodies(m)
+    seen: set[str] = set()
+    todo = list(exprs)
+    while todo:
+        for node in nodes(todo.pop()):
+            if isinstance(node, Var) and node.name not in seen:
+                seen.add(node.name)
+                if node.name in body:
+                    todo.append(body[node.name])
+    return seen
+
+
+def undivided(m: Machine, jobs: Sequence[object], results: list[Result]) -> list[Result]:
+    """The results, with every verdict that depends on a division whose `div:` check does not hold made unknown:
+    z3 gives x/0 an arbitrary value, the code IEEE 754's infinity or NaN."""
+    unsafe = {r.prop.removeprefix("div:") for r in results if r.kind == "division" and r.verdict != "holds"}
+    if not unsafe:
+        return results
+    step = [t.guard for t in m.transitions] + [u.expr for t in m.transitions for u in t.updates]
+    step += [v.every for v in m.variables if v.every is not None] + [a.expr for a in m.assumptions]
+    in_step = _reads(m, step) | {t.id for t in m.transitions} | {v.name for v in m.variables}
+    marked = []
+    for job, r in zip(jobs, results, strict=True):
+        cone = in_step | _reads(m, getattr(job, "exprs", ())) | {r.prop}
+        hit = sorted(unsafe & cone)
+        if r.kind in ("division", "lemma") or r.verdict == "unknown" or not hit:
+            marked.append(r)
+            continue
+        why = (
+            f"not decided for the code: it depends on div:{hit[0]}, where a divisor can be zero "
+            f"(the code computes IEEE 754's infinity or NaN there; the engine's x/0 is any value)"
+        )
+        marked.append(replace(r, verdict="unknown", detail=why, counterexample=None, caveat=""))
+    return marked

@@ -1,0 +1,146 @@
+"""A proof must hold for the code that runs: the engine's verdicts on random machines with data against runs of the
+generated Python (binary64 reals, IEEE division). Every invariant and range check the engine proves without a
+caveat holds at every step of random runs of the code at the params' defaults, and every counterexample the engine
+reports without a caveat, replayed in the code, fails at its last step. The machines are those of
+test_data_vs_bruteforce (int counters, an int signal read by definitions, params), without their environment
+assumptions (random runs do not keep to them), and machines with a real timer that counts in decimal steps and
+guards that compare it with decimals (the classes where reals and binary64 part)."""
+
+from __future__ import annotations
+
+import itertools
+import random
+import re
+from pathlib import Path
+from types import ModuleType
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mlca_verify.codegen import generate, write
+from mlca_verify.logic import check_all
+from mlca_verify.logic.induction import Limits
+from mlca_verify.logic.results import Result
+from mlca_verify.model import Machine
+from mlca_verify.spec import load_spec
+from mlca_verify.targets import import_generated
+from tests.test_data_vs_bruteforce import specs
+
+MACHINES = 500  # random machines, in two classes
+RUNS, STEPS = 4, 25
+LIMITS = Limits(depth=20)
+SETTINGS = settings(
+    max_examples=MACHINES // 2,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large, HealthCheck.function_scoped_fixture],
+)
+_COUNT = itertools.count()
+
+
+@st.composite
+def real_timers(draw: st.DrawFn) -> str:
+    """A real timer counting in a decimal step, and guards comparing it with decimals (exact or not in binary64)."""
+    step = draw(st.sampled_from(["0.1", "0.2", "0.25", "0.3", "0.5", "0.7"]))
+    low, high = sorted(
+        draw(st.lists(st.sampled_from(["0.2", "0.25", "0.3", "0.5", "0.6", "0.9", "1.0"]), min_size=2, max_size=2))
+    )
+    skip = draw(st.sampled_from(["0.3", "0.6", "0.5", "0.9"]))
+    guard = draw(st.sampled_from([f"t > {low} and t < {high} and t != {skip}", f"t == {skip}", f"t >= {high}"]))
+    return f"""
+[machine]
+name = "R"
+initial = "A"
+states = ["A", "BAD"]
+[inputs]
+go = {{ doc = "go" }}
+[variables]
+t = {{ type = "real", initial = 0.0, range = [0.0, 2.0], every = "min(t + {step}, 2.0)", doc = "a timer" }}
+[[transition]]
+from = "A"
+to = "BAD"
+when = "go and {guard}"
+[[invariant]]
+id = "never-bad"
+expr = "state != BAD"
+"""
+
+
+def _without_assumptions(text: str) -> str:
+    return re.sub(r"\[\[assume\]\]\nid = \"env\"\nexpr = \"[^\"]*\"\n", "", text)
+
+
+def _loaded(text: str, folder: Path) -> tuple[Machine, ModuleType]:
+    path = folder / "r.toml"
+    path.write_text(text)
+    spec = load_spec(path)
+    write(generate(spec, folder / "gen"), folder / "gen")
+    return spec.machine, import_generated(folder / "gen" / "python" / "r_fsm.py", f"r_fsm_{next(_COUNT)}")
+
+
+def _inputs(module: ModuleType, machine: Machine, values: dict[str, object]) -> object:
+    return module.Inputs(
+        **{i.name: values[i.name] for i in machine.inputs}, **{s.name: values[s.name] for s in machine.signals}
+    )
+
+
+def _random_values(machine: Machine, rng: random.Random) -> dict[str, object]:
+    values: dict[str, object] = {i.name: rng.random() < 0.5 for i in machine.inputs}
+    for s in machine.signals:
+        low, high = (int(b) for b in s.range)
+        values[s.name] = rng.randint(low - 1, high + 1)
+    return values
+
+
+def _step(module: ModuleType, ctx: object, inputs: object) -> tuple[list[str], object]:
+    before = module.Context(**vars(ctx))
+    out = module.step(ctx, inputs)
+    return module.monitor(before, ctx, inputs, module.DEFAULT_PARAMS, out), out
+
+
+def _trusted(results: list[Result]) -> dict[str, Result]:
+    return {r.prop: r for r in results if not r.caveat and r.proof is not None and not r.proof.parametric}
+
+
+def _runs_keep_the_proofs(machine: Machine, module: ModuleType, results: dict[str, Result]) -> None:
+    proved = {p for p, r in results.items() if r.verdict == "holds" and r.kind == "invariant"}
+    ranges = {v for v in machine.variables if v.range is not None and results.get(f"range:{v.name}")}
+    rng = random.Random(len(machine.states) * 7919 + len(machine.transitions))
+    for _ in range(RUNS):
+        ctx = module.Context()
+        for k in range(STEPS):
+            failing, _ = _step(module, ctx, _inputs(module, machine, _random_values(machine, rng)))
+            assert not proved & set(failing), (k, failing)
+            for v in ranges:
+                if results[f"range:{v.name}"].verdict == "holds":
+                    assert v.range[0] <= getattr(ctx, v.name) <= v.range[1]
+
+
+def _counterexamples_replay(machine: Machine, module: ModuleType, results: dict[str, Result]) -> None:
+    for prop, r in results.items():
+        if r.kind != "invariant" or r.verdict != "violated" or r.counterexample is None or r.counterexample.params:
+            continue
+        ctx = module.Context()
+        failing: list[str] = []
+        for step in r.counterexample.steps:
+            failing, _ = _step(module, ctx, _inputs(module, machine, {**step.inputs, **step.signals}))
+        assert prop in failing, prop
+
+
+def _differ(text: str, folder: Path) -> None:
+    machine, module = _loaded(text, folder)
+    results = _trusted(check_all(machine, limits=LIMITS))
+    _runs_keep_the_proofs(machine, module, results)
+    _counterexamples_replay(machine, module, results)
+
+
+@SETTINGS
+@given(specs())
+def test_the_generated_code_keeps_every_proof_of_random_int_machines(tmp_path_factory: object, text: str) -> None:
+    _differ(_without_assumptions(text), tmp_path_factory.mktemp("int"))  # type: ignore[attr-defined]
+
+
+@SETTINGS
+@given(real_timers())
+def test_the_generated_code_keeps_every_proof_of_random_real_timers(tmp_path_factory: object, text: str) -> None:
+    _differ(text, tmp_path_factory.mktemp("real"))  # type: ignore[attr-defined]
