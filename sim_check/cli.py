@@ -22,6 +22,7 @@ from mlca_verify.errors import MlcaError, UsageError
 from mlca_verify.escape import terminal
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.db import Plan, ResultsDB
+from sim_check.replay import MAX_REPLAY_POINTS
 from sim_check.results import MARKS_KM, Job, RunResult
 from sim_check.scenario import LIMITS, MAX_SEED, Scenario, load_scenario
 
@@ -78,7 +79,10 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--jobs", type=_bounded(1, MAX_JOBS), default=2, help="worker processes (default 2)")
     sweep.add_argument("--db", type=Path, required=True, help="results database (SQLite)")
     sweep.add_argument(
-        "--resume", action="store_true", help="skip the runs the database already holds and those a running sweep holds"
+        "--resume",
+        action="store_true",
+        help="skip the runs the database already holds and those a running sweep holds (the runs of a sweep that "
+        "ends meanwhile are run too)",
     )
     sweep.add_argument("--retry-failed", action="store_true", help="with --resume: run the failed runs again")
     sweep.add_argument("--scenario", type=Path, help="scenario file (TOML; default: the paper's)")
@@ -92,7 +96,12 @@ def _parser() -> argparse.ArgumentParser:
     replay = sub.add_parser(
         "replay", help="a lemma's counterexample (or a point) as traffic in SUMO: RSS's worst case after the change"
     )
-    replay.add_argument("file", type=Path, help="`mlca-verify check --json` output, or a TOML file with [point]")
+    replay.add_argument(
+        "file",
+        type=Path,
+        help=f"`mlca-verify check --json` output (at most {MAX_REPLAY_POINTS} distinct points), or a TOML file with "
+        "[point]",
+    )
     replay.add_argument("--lemma", help="the lemma whose counterexample to replay (default: every violated one)")
     replay.add_argument("--side", choices=["left", "right"], default="left", help="the lane changed into")
     replay.add_argument("--json", type=Path, help="also write the outcome as JSON")
@@ -250,29 +259,60 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         plan = results.lease(wanted, resume=args.resume, retry_failed=args.retry_failed)
         sweep = _sweep(args, scenario, results)
         print(_planned(args, wanted, plan), flush=True)
-        return _run_sweep(args, sweep, plan, wanted)
+        return _run_sweep(args, lambda: _sweep(args, scenario, results), sweep, plan, wanted)
 
 
-def _run_sweep(args: argparse.Namespace, sweep: Sweep, plan: Plan, wanted: list[Job]) -> int:
+def _run_sweep(
+    args: argparse.Namespace, another: Callable[[], Sweep], sweep: Sweep, plan: Plan, wanted: list[Job]
+) -> int:
+    """Run the plan; then lease again, and run what another sweep left when it ended meanwhile (its leases are
+    reclaimed), until every wanted run is stored or held by a live sweep. A wanted run that is neither (one this
+    sweep ran, yet not stored) is missing: exit 1."""
     progress = Progress(len(plan.todo))
-    try:
-        sweep.run(plan.todo, progress)
-    except KeyboardInterrupt:
-        stored = len(sweep.database.stored_keys() & set(wanted))
-        print(
-            f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
-            "command with --resume to do the rest",
-            file=sys.stderr,
-        )
-        return EXIT_INTERRUPTED
-    except MlcaError:  # the database failed: the error goes on a line of its own
+    tried: set[Job] = set()
+    skipped = 0
+    while True:
+        tried.update(plan.todo)
+        try:
+            sweep.run(plan.todo, progress)
+        except KeyboardInterrupt:
+            stored = len(sweep.database.stored_keys() & set(wanted))
+            print(
+                f"\ninterrupted: {stored} of the {len(wanted)} runs wanted are stored in {args.db}; run the same "
+                "command with --resume to do the rest",
+                file=sys.stderr,
+            )
+            return EXIT_INTERRUPTED
+        except MlcaError:  # the database failed: the error goes on a line of its own
+            progress.end()
+            raise
+        skipped += len(sweep.skipped)
+        plan = sweep.database.lease(wanted, resume=True, retry_failed=False)
+        left = [job for job in plan.todo if job not in tried]
+        if not left:
+            sweep.database.release()
+            break
         progress.end()
-        raise
+        print(f"{len(left)} runs left unfinished by a sweep that ended meanwhile: running them too", flush=True)
+        progress.total += len(left)
+        plan.todo = left
+        sweep = another()
     progress.end()
     summary = progress.summary()
-    if sweep.skipped:
-        summary += f", {len(sweep.skipped)} stored by another process first (not stored again)"
+    if skipped:
+        summary += f", {skipped} stored by another process first (not stored again)"
     print(f"{summary}; results in {args.db}")
+    missing = len(set(wanted) - sweep.database.stored_keys()) - sum(plan.held.values())
+    if missing > 0:
+        print(
+            f"{args.db}: error: {missing} of the {len(wanted)} runs wanted are missing (neither stored nor held by "
+            "a running sweep); run the same command with --resume",
+            file=sys.stderr,
+        )
+        return 1
+    if plan.held:
+        pids = ", ".join(map(str, sorted(plan.held)))
+        print(f"{sum(plan.held.values())} runs wanted are left to the sweep running as pid {pids}")
     return 0 if progress.counts["failed"] == 0 and progress.counts["violations"] == 0 else 1
 
 

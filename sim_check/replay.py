@@ -16,6 +16,10 @@ acceleration within a step), the motion RSS's distance is derived for.
 
 The pure part (reading and checking the point, the worst-case profiles, the verdict) is free of SUMO; `replay`
 drives libsumo.
+
+A `mlca-verify check --json` report is replayed one point per distinct (spec, lemma, counterexample point): copies
+of one result are replayed once. One file may ask for at most MAX_REPLAY_POINTS (50) distinct points, each two SUMO
+runs; a file with more is refused before SUMO starts, as is a lemma whose name no spec could give.
 """
 
 from __future__ import annotations
@@ -29,10 +33,13 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.errors import ToolError, UsageError
+from mlca_verify.escape import terminal
 from mlca_verify.files import read_regular
+from mlca_verify.spec.names import NAME_LIMIT, PROPERTY_ID
 from sim_check.scenario import sumo_bin, sumo_command
 
 MAX_REPLAY_BYTES = 1 << 20
+MAX_REPLAY_POINTS = 50  # distinct points one file may ask to replay: each is two SUMO runs
 STEP_S = 0.1
 LENGTH_M = 5.0  # every vehicle's length
 SPEED_RANGE = (0.0, 70.0)  # m/s, MLCA-T's signal range
@@ -102,13 +109,18 @@ class Phase:
 
 def load_points(path: Path, lemma: str | None, side: str) -> list[Point]:
     """The points in FILE: a `mlca-verify check --json` document (each violated lemma's counterexample, or the
-    one of `lemma`, read through the side's signals) or a TOML file with a `[point]` table (and `[params]`)."""
+    one of `lemma`, read through the side's signals) or a TOML file with a `[point]` table (and `[params]`). A
+    `.json` file is read as JSON; a file of another name as JSON when it starts with `{`, else as TOML."""
+    if lemma is not None:
+        _lemma_name("mlca-sim replay: error: --lemma", lemma)
+    if path.is_dir():
+        raise UsageError(f"{path}: error: is a directory, not a report or point file")
     data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise UsageError(f"{path}: error: not UTF-8") from None
-    if text.lstrip().startswith("{"):
+    if path.suffix.lower() == ".json" or text.lstrip().startswith("{"):
         return _from_check_json(path, text, lemma, side)
     if lemma is not None:
         raise UsageError(f"{path}: error: --lemma needs a `mlca-verify check --json` file")
@@ -136,20 +148,61 @@ def _from_toml(path: Path, text: str) -> Point:
 def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> list[Point]:
     try:
         doc = json.loads(text)
-    except (ValueError, RecursionError) as err:
+    except RecursionError:
+        raise UsageError(f"{path}: error: invalid JSON: nested too deeply") from None
+    except ValueError as err:
         raise UsageError(f"{path}: error: invalid JSON: {str(err).splitlines()[0] or type(err).__name__}") from None
     if not isinstance(doc, dict) or doc.get("schema") != "mlca-verify.check/2":
         raise UsageError(f"{path}: error: not a `mlca-verify check --json` document (schema mlca-verify.check/2)")
-    points = [
-        _counterexample(path, spec, result, side)
+    pairs = [
+        (spec, result)
         for spec in _list(doc.get("specs"))
         for result in _list(spec.get("results") if isinstance(spec, dict) else None)
-        if _wanted(result, lemma) and (lemma is not None or _about(_first_step(result), side))
+        if isinstance(result, dict) and result.get("kind") == "lemma"
     ]
+    for _, result in pairs:  # every name checked before any is compared or read further
+        _lemma_name(f"{path}: error: lemma", result.get("property"))
+    points: dict[tuple[Any, ...], Point] = {}
+    for spec, result in pairs:
+        if _wanted(result, lemma) and (lemma is not None or _about(_first_step(result), side)):
+            point = _counterexample(path, spec, result, side)
+            points.setdefault(_identity(point), point)
     if not points:
         what = f"lemma {lemma}" if lemma else f"a violated lemma about the {side} side"
         raise UsageError(f"{path}: error: no counterexample of {what} in this file")
-    return points
+    if len(points) > MAX_REPLAY_POINTS:
+        raise UsageError(
+            f"{path}: error: {len(points)} distinct counterexample points to replay, more than the "
+            f"{MAX_REPLAY_POINTS} one file may hold; choose one lemma with --lemma"
+        )
+    return list(points.values())
+
+
+def _lemma_name(where: str, name: object) -> None:
+    """Refuse a lemma name no spec could give (PROPERTY_ID, at most NAME_LIMIT characters); `where` begins the
+    message."""
+    if not isinstance(name, str):
+        raise UsageError(f"{where} name must be a string, not {type(name).__name__}")
+    if len(name) > NAME_LIMIT:
+        raise UsageError(f"{where} name of {len(name):,} characters: a spec allows at most {NAME_LIMIT}")
+    if not PROPERTY_ID.fullmatch(name):
+        raise UsageError(
+            f"{where} name {name!r} is not a property name: a letter, then letters, digits, '_', '-' or '.'"
+        )
+
+
+def _identity(point: Point) -> tuple[Any, ...]:
+    """What makes two points one replay: the spec, the lemma, the values and params, and the expected outcome."""
+    values = tuple(getattr(point, k) for k in POINT_KEYS)
+    return (
+        point.spec,
+        point.spec_sha256,
+        point.lemma,
+        point.source,
+        values,
+        tuple(sorted(point.params.items())),
+        point.expect,
+    )
 
 
 def _counterexample(path: Path, spec: dict[str, Any], result: dict[str, Any], side: str) -> Point:
@@ -415,10 +468,11 @@ def outcome(phases: list[Phase]) -> str:
 
 
 def describe(point: Point, phases: list[Phase]) -> str:
+    """The replay of a point as lines for a terminal: the file's text in them (the source) escaped."""
     p = point.params
     lines = [
-        f"{point.source}: AV at {point.v:g} m/s; new leader {point.gap_lead:g} m ahead at {point.v_lead:g} m/s; "
-        f"new follower {point.gap_follow:g} m behind at {point.v_follow:g} m/s",
+        f"{terminal(point.source)}: AV at {point.v:g} m/s; new leader {point.gap_lead:g} m ahead at "
+        f"{point.v_lead:g} m/s; new follower {point.gap_follow:g} m behind at {point.v_follow:g} m/s",
         f"  RSS params: RHO {p['RHO']:g} s, ACCEL_MAX {p['ACCEL_MAX']:g} m/s^2, BRAKE_MIN {p['BRAKE_MIN']:g} m/s^2, "
         f"BRAKE_MAX {p['BRAKE_MAX']:g} m/s^2",
     ]

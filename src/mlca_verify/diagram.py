@@ -3,6 +3,9 @@
 Transitions are drawn in priority order; under first-match semantics each label starts with its priority.
 `from = "*"` transitions are drawn from every state. `otherwise = "stay"` is not drawn (no edge: the state
 is kept); under `otherwise = "undefined"` the same absence is a gap, which the caption says.
+
+Spec text in a DOT string (the caption's cite, an edge's label and tooltip) is clipped to DOT_TEXT_LIMIT
+characters, ending in "...": Graphviz refuses a quoted string longer than 16,384 bytes.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from mlca_verify.escape import one_line, terminal, xml_comment, xml_text
 from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, as_binop, show
 
 FORMATS = ("dot", "mermaid", "scxml")
+DOT_TEXT_LIMIT = 1_000  # characters of spec text in one DOT string; escaped, at most 10 bytes each
 
 
 def _edges(m: Machine) -> list[tuple[str, int, Transition]]:
@@ -52,17 +56,22 @@ def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> s
     ]
     lines += [f"  {s};" for s in m.states]
     for state, priority, t in _edges(m):
-        label = _dot_str(f"{_label(m, priority, t)}\n[{t.id}]")
+        label = _dot_str(f"{clip(_label(m, priority, t), DOT_TEXT_LIMIT - len(t.id) - 3)}\n[{t.id}]")
         mark = ", color=red, fontcolor=red, penwidth=2" if (state, t.id) in highlight else ""
         lines.append(f"  {state} -> {t.target} [label={label}, tooltip={_dot_str(t.cite)}{mark}];")
     lines.append("}")
     return "\n".join(lines) + "\n"
 
 
+def clip(text: str, limit: int = DOT_TEXT_LIMIT) -> str:
+    """`text` if it has at most `limit` characters, else its beginning and "..." in `limit` characters."""
+    return text if len(text) <= limit else text[: max(limit - 3, 0)] + "..."
+
+
 def _dot_str(text: str) -> str:
-    """A DOT string (UTF-8): backslashes and quotes escaped, newlines as DOT's line breaks, other control
-    characters as visible escapes; printable Unicode kept."""
-    lines = (terminal(line.replace("\\", "\\\\").replace('"', '\\"')) for line in text.split("\n"))
+    """A DOT string (UTF-8) of at most DOT_TEXT_LIMIT characters of `text` (clipped): backslashes and quotes
+    escaped, newlines as DOT's line breaks, other control characters as visible escapes; printable Unicode kept."""
+    lines = (terminal(line.replace("\\", "\\\\").replace('"', '\\"')) for line in clip(text).split("\n"))
     return '"' + "\\n".join(lines) + '"'
 
 

@@ -67,9 +67,12 @@ def read_regular(path: Path, limit: int, what: str) -> bytes:
         raise UsageError(f"{str(path)!r}: error: cannot read {what}: the name holds a NUL byte") from None
     except OSError as err:
         raise UsageError(f"{path}: error: cannot read {what}: {err.strerror or err}") from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file"
+        raise UsageError(f"{path}: error: cannot read {what}: {kind}")
     with os.fdopen(fd, "rb") as file:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise UsageError(f"{path}: error: cannot read {what}: not a regular file")
         try:
             data = file.read(limit + 1)
         except OSError as err:
