@@ -193,3 +193,17 @@ def test_the_shipped_specs_keep_their_verdicts() -> None:
         assert all(r.ok for r in results), name
         assert not [r for r in results if r.kind == "overflow"], name
         assert all(r.verdict == "holds" for r in results if r.kind == "division"), name
+
+
+def test_a_witness_replayed_in_binary64_confirms_the_run_or_shows_where_it_parts() -> None:
+    from mlca_verify.logic.replay64 import follows
+    from mlca_verify.logic.results import Counterexample, Outcome, Step
+
+    machine = load_text(TIMER.format(step="0.1", guard="go and xv > 0.25 and xv < 0.35 and xv != 0.3"), "m.toml")
+    stay = [Step("A", {"go": True}, Outcome(None, None, "A")) for _ in range(3)]
+    real_run = Counterexample((*stay, Step("A", {"go": True}, Outcome(None, None, "A"))))
+    assert not follows(machine, real_run)  # over the reals xv is 0.3 at step 4; in binary64 it is not, so t1 fires
+    code_run = Counterexample((*stay, Step("A", {"go": True}, Outcome("t1", None, "BAD"))))
+    assert follows(machine, code_run)
+    results = _results(TIMER.format(step="0.1", guard="go and xv > 0.35"))
+    assert results["reach:BAD"].verdict == "holds" and results["reach:BAD"].caveat == ""  # its witness replays

@@ -12,6 +12,7 @@ import z3
 from mlca_verify.logic.binary64 import Rounding
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.lemmas import decide as decide_lemma
+from mlca_verify.logic.replay64 import follows
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
 from mlca_verify.logic.sites import INT64, OverflowSite, Site, division_sites, divisions, overflow_sites, undivided
 from mlca_verify.logic.symbolic import (
@@ -124,7 +125,10 @@ class DataChecker:
             return ""
         if job.parametric not in self._rounding:
             self._rounding[job.parametric] = Rounding(self.m, job.parametric)
-        proved = search is not None and search.answer == "unreachable" and not search.on_real
+        witness = job.kind in ("reachability", "dead-transition") and search.path is not None
+        if witness and search.path is not None and follows(self.m, self.trace(search.path)):
+            return ""  # the witness is a run of the code too: replayed in binary64, it fires the same
+        proved = search.answer == "unreachable" and not search.on_real
         abstracted = self.abstractable if proved and not _reads_validity(*job.exprs) else frozenset()
         fault = self._rounding[job.parametric].at_fault(job.exprs, abstracted)
         if fault is None:
