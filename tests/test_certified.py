@@ -19,12 +19,13 @@ MACHINE = load_spec(ROOT / "spec" / "mlca_t.toml", compare=False).machine
 LOWERING = AcslLowering.of(MACHINE, "mlca_t", "MLCA_T")
 DEFERRAL = (
     "(let ((a!1 (not (<= (+ need_age@p0 (* (- 1) waited@p0)) (- 1)))))"
-    " (and (or (not prev0@p0) (not (>= mode@p0 2))) (or (not first@p0) (not (>= mode@p0 1))) a!1"
+    " (and (or (not !prev0@p0) (not (>= !mode@p0 2))) (or (not !first@p0) (not (>= !mode@p0 1))) a!1"
     " (not (<= need_age@p0 (- 1)))))"
 )
 
 
 def test_a_pdr_certificate_reads_over_the_c_context() -> None:
+    """The engine's own constants (mode, first-step flag, registers) read as the context's members."""
     stated, left = certify(MACHINE, LOWERING, [Proved("deferral", DEFERRAL)])
     assert left == []
     (x,) = stated

@@ -511,3 +511,10 @@ def bodies(m: Machine) -> dict[str, Expr]:
     found = {d.name: d.expr for d in m.definitions}
     found.update({o.name: o.expr for o in m.outputs})
     return found
+
+
+def own(name: str) -> str:
+    """The solver's name of a constant the engine defines for itself (a mode, a register, a counter, a flag), as
+    its certificates print it. It starts with '!', which no spec name holds, so a spec symbol (`<name>@<step>`)
+    can never be one of them."""
+    return f"!{name}"

@@ -20,7 +20,7 @@ from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.data_ir import binary64
-from mlca_verify.model import Expr, Machine, Prev, Type, prevs_of
+from mlca_verify.model import Expr, Machine, Prev, Type, own, prevs_of
 
 Sexpr = str | list["Sexpr"]
 _TOKEN = re.compile(r"\(|\)|[^\s()]+")
@@ -59,11 +59,11 @@ class Frame:
 
 
 def frame_of(m: Machine, prev_index: Mapping[Prev, int], inv_prevs: Sequence[Prev], types: Sequence[Type]) -> Frame:
-    terms: dict[str, tuple[str, Type]] = {"mode@p0": ("c.mode", "int"), "first@p0": ("c.first", "bool")}
+    terms: dict[str, tuple[str, Type]] = {own("mode@p0"): ("c.mode", "int"), own("first@p0"): ("c.first", "bool")}
     for v in m.variables:
         terms[f"{v.name}@p0"] = (f"c.{v.name}", v.type)
     for j, prev in enumerate(inv_prevs):
-        terms[f"prev{j}@p0"] = (f"c.prev{prev_index[prev]}", types[j])
+        terms[own(f"prev{j}@p0")] = (f"c.prev{prev_index[prev]}", types[j])
     for p in m.params:
         terms[f"param!{p.name}"] = (f"p.{p.name}", p.type)
     return Frame(terms)

@@ -31,7 +31,7 @@ from fractions import Fraction
 import z3
 
 from mlca_verify.intervals import UNBOUNDED, Interval, enclose
-from mlca_verify.logic.symbolic import StepInputs, System, Valuation, own, sort_of, value_of
+from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of, value_of
 from mlca_verify.model import (
     Arith,
     Call,
@@ -46,6 +46,7 @@ from mlca_verify.model import (
     bodies,
     name_types,
     nodes,
+    own,
     show,
     type_of,
 )
@@ -226,10 +227,16 @@ class Rounding:
         return None
 
     def comparisons(self, exprs: Iterable[Expr], abstracted: frozenset[str], step: bool) -> list[Cmp]:
-        todo = list(exprs)
-        if step:
-            todo += [t.guard for t in self.m.transitions] + [u.expr for t in self.m.transitions for u in t.updates]
-            todo += [v.every for v in self.m.variables if v.every is not None]
+        """The real comparisons `exprs` read (through definitions and outputs, but not the abstracted ones),
+        sorted, then those of the step that are not among them."""
+        own = self._read(list(exprs), abstracted)
+        if not step:
+            return own
+        todo = [t.guard for t in self.m.transitions] + [u.expr for t in self.m.transitions for u in t.updates]
+        todo += [v.every for v in self.m.variables if v.every is not None]
+        return own + [c for c in self._read(todo, abstracted) if c not in own]
+
+    def _read(self, todo: list[Expr], abstracted: frozenset[str]) -> list[Cmp]:
         seen: set[str] = set()
         found: dict[str, Cmp] = {}
         while todo:

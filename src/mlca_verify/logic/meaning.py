@@ -11,8 +11,8 @@ from typing import Literal
 
 import z3
 
-from mlca_verify.logic.symbolic import StepInputs, System, Valuation, own, sort_of
-from mlca_verify.model import Expr, Invariant, Liveness, Machine, Num, prevs_of, show
+from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of
+from mlca_verify.model import Expr, Invariant, Liveness, Machine, Num, own, prevs_of, show
 
 Relation = Literal["equivalent", "strengthened", "weakened", "incomparable", "unknown"]
 

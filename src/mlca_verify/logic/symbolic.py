@@ -38,6 +38,7 @@ from mlca_verify.model import (
     Type,
     Var,
     nodes,
+    own,
     type_of,
 )
 
@@ -54,12 +55,6 @@ def python_value(term: z3.ExprRef) -> bool | int | float:
     if z3.is_algebraic_value(term):
         return float(term.approx(20).as_fraction())
     return 0
-
-
-def own(name: str) -> str:
-    """The z3 name of a constant the engine defines for itself (a mode, a register, a counter, a flag). It starts
-    with '!', which no spec name holds, so a spec symbol (`<name>@<step>`) can never be one of them."""
-    return f"!{name}"
 
 
 def sort_of(kind: Type) -> z3.SortRef:

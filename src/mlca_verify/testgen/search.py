@@ -28,11 +28,10 @@ from mlca_verify.logic.symbolic import (
     System,
     Valuation,
     input_only,
-    own,
     python_value,
     value_of,
 )
-from mlca_verify.model import BinOp, Cmp, Expr, Machine, Not, Var, nodes, prevs_of, show
+from mlca_verify.model import BinOp, Cmp, Expr, Machine, Not, Var, nodes, own, prevs_of, show
 from mlca_verify.testgen.objectives import Decision, Objective, atoms, rule
 
 MARGIN = Fraction(1, 64)  # how far apart the two sides of a real comparison are kept at a concrete step
