@@ -414,7 +414,7 @@ def test_cobertura_counts_lines_and_branches() -> None:
 def test_a_depth_out_of_range_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["tests", "spec/mlca.toml", "--out", str(tmp_path), "--depth", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["error: --depth must lie in [1, 200], not 0"]
+    assert err == ["mlca-verify tests: error: argument --depth: must be from 1 to 1000, got 0"]
 
 
 def test_a_machine_of_other_semantics_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

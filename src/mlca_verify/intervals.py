@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
-from mlca_verify.model import Arith, Call, Expr, Ite, Neg, Num, Var
+from mlca_verify.model import Arith, Call, Expr, Ite, Machine, Neg, Num, Var, bodies, name_types, type_of
 
 
 @dataclass(frozen=True)
@@ -119,3 +119,24 @@ def enclose(expr: Expr, names: Mapping[str, Interval]) -> Interval:
             result = _min(result, part) if expr.fn == "min" else _max(result, part)
         return result
     return UNBOUNDED
+
+
+INT64 = Interval(Fraction(-(2**63)), Fraction(2**63 - 1))  # the generated code's ints
+
+
+def machine_intervals(m: Machine, at_defaults: bool) -> dict[str, Interval]:
+    """Each numeric name's values as far as ranges tell: params by their ranges (or, `at_defaults`, their
+    defaults), variables by their ranges (the `range:` checks show that every step keeps them), int signals
+    anywhere in 64 bits and real ones anywhere (an invalid sample reaches the code too), definitions and outputs
+    by their expressions."""
+    found: dict[str, Interval] = {}
+    for p in m.params:
+        found[p.name] = Interval(*p.range) if p.range is not None and not at_defaults else Interval.point(p.default)
+    for v in m.variables:
+        found[v.name] = Interval(*v.range) if v.range is not None else UNBOUNDED
+    for s in m.signals:
+        found[s.name] = INT64 if s.type == "int" else UNBOUNDED
+    kinds = name_types(m)
+    for name, body in bodies(m).items():  # definitions in dependency order, then outputs
+        found[name] = enclose(body, found) if type_of(body, kinds) != "bool" else UNBOUNDED
+    return found

@@ -30,7 +30,7 @@ from fractions import Fraction
 
 import z3
 
-from mlca_verify.intervals import UNBOUNDED, Interval, enclose
+from mlca_verify.intervals import Interval, enclose, machine_intervals
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of, value_of
 from mlca_verify.model import (
     Arith,
@@ -88,25 +88,12 @@ class Rounding:
         self.parametric = parametric
         self.kinds = name_types(machine)
         self.bodies = bodies(machine)
-        self.intervals = self._intervals()
+        self.intervals = machine_intervals(machine, at_defaults=not parametric)
         self.grains = self._variable_grains()
         self.exact_variables = self._exact_variables()
         self._robust: dict[tuple[Cmp, bool], bool] = {}
 
     # --- bounds ---------------------------------------------------------------------------------------
-
-    def _intervals(self) -> dict[str, Interval]:
-        m = self.m
-        found: dict[str, Interval] = {}
-        for p in m.params:
-            found[p.name] = Interval(*p.range) if self.parametric and p.range else Interval.point(p.default)
-        for v in m.variables:
-            found[v.name] = Interval(*v.range) if v.range is not None else UNBOUNDED
-        for s in m.signals:
-            found[s.name] = UNBOUNDED  # an invalid sample reaches the code too
-        for name, body in self.bodies.items():  # definitions in dependency order, then outputs
-            found[name] = enclose(body, found) if type_of(body, self.kinds) != "bool" else UNBOUNDED
-        return found
 
     def _variable_grains(self) -> dict[str, Grain]:
         """Each real variable's grain: the finest of its initial value's and of every value assigned to it."""

@@ -9,11 +9,15 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Literal
 
-from mlca_verify.intervals import UNBOUNDED, Interval, enclose
+from mlca_verify.intervals import Interval, enclose, machine_intervals
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Arith, Call, Expr, Machine, Neg, Num, Var, bodies, name_types, nodes, type_of
 
 INT64 = (-(2**63), 2**63 - 1)  # the generated code's ints
+
+
+def _fits(values: Interval) -> bool:
+    return values.within(Fraction(INT64[0]), Fraction(INT64[1]))
 
 
 def divisions(expr: Expr) -> list[Arith]:
@@ -52,28 +56,11 @@ class OverflowSite:
     nodes: tuple[Expr, ...]  # the int values intervals cannot keep within 64 bits
 
 
-def int_intervals(m: Machine) -> dict[str, Interval]:
-    """Each name's values as far as ranges tell: params and variables by their ranges (the `range:` checks
-    show that variables keep to them), int signals anywhere in 64 bits (an invalid sample reaches the code too)."""
-    found: dict[str, Interval] = {}
-    for p in m.params:
-        found[p.name] = Interval(*p.range) if p.range is not None else Interval.point(p.default)
-    for v in m.variables:
-        found[v.name] = Interval(*v.range) if v.range is not None else UNBOUNDED
-    for s in m.signals:
-        found[s.name] = Interval(*(Fraction(b) for b in INT64)) if s.type == "int" else UNBOUNDED
-    kinds = name_types(m)
-    for name, body in bodies(m).items():
-        found[name] = enclose(body, found) if type_of(body, kinds) != "bool" else UNBOUNDED
-    return found
-
-
 def overflow_sites(m: Machine) -> list[OverflowSite]:
     """The elements with an int value (an operation's result or a literal) that intervals cannot keep within
     64 bits; each becomes an `ovf:` check. Elsewhere the code cannot overflow."""
     kinds = name_types(m)
-    names = int_intervals(m)
-    low, high = (Fraction(b) for b in INT64)
+    names = machine_intervals(m, at_defaults=False)  # the code may run at any param value in range
     result = []
     for site in _sites(m):
         risky = [
@@ -84,7 +71,7 @@ def overflow_sites(m: Machine) -> list[OverflowSite]:
             and (not isinstance(n, Call) or n.fn == "abs")
             and not (isinstance(n, Arith) and n.op == "/")
             and type_of(n, kinds) == "int"
-            and not enclose(n, names).within(low, high)
+            and not _fits(enclose(n, names))
         ]
         if risky:
             result.append(OverflowSite(site, tuple(dict.fromkeys(risky))))

@@ -17,7 +17,6 @@ from mlca_verify.testgen.objectives import objectives
 from mlca_verify.testgen.search import Found, Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
 
 DEPTH = 30  # the longest run searched
-MAX_DEPTH = 200  # the longest a user may ask for
 
 
 @dataclass(frozen=True)
