@@ -14,7 +14,7 @@ from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso
 from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.replay64 import follows
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
-from mlca_verify.logic.sites import INT64, OverflowSite, Site, division_sites, divisions, overflow_sites, undivided
+from mlca_verify.logic.sites import INT64, OverflowSite, Site, division_cone, division_sites, divisions, overflow_sites
 from mlca_verify.logic.symbolic import (
     Frame,
     Monitor,
@@ -71,6 +71,7 @@ class DataChecker:
         self._cover: dict[str, Path] | None = None
         self._systems: dict[tuple[object, ...], System] = {}
         self._rounding: dict[bool, Rounding] = {}
+        self.unsafe: set[str] = set()  # the elements whose div: check does not hold
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -117,7 +118,27 @@ class DataChecker:
                 notes=tuple(search.notes) + ((search.reason,) if search.reason else ()),
             )
         caveat = self.caveat(job, verdict, search)
-        return Result(job.prop, job.kind, verdict, job.expected, job.cite, seconds, trace, detail, proof, caveat)
+        result = Result(job.prop, job.kind, verdict, job.expected, job.cite, seconds, trace, detail, proof, caveat)
+        return self.undivided(job, result, search)
+
+    def replays(self, job: Job, search: Search | None) -> bool:
+        """Is the job's witness a run of the code too (replayed in binary64, it fires the same transitions)?"""
+        witness = job.kind in ("reachability", "dead-transition") and search is not None
+        return witness and search is not None and search.path is not None and follows(self.m, self.trace(search.path))
+
+    def undivided(self, job: Job, r: Result, search: Search | None) -> Result:
+        """`r`, made unknown when it depends on a division whose divisor can be zero (z3 gives x/0 any value,
+        the code IEEE 754's infinity or NaN), unless no search decided it or its witness is a run of the code."""
+        hit = sorted(self.unsafe & division_cone(self.m, job.exprs, job.prop))
+        if not hit or search is None or r.verdict == "unknown" or job.kind in ("division", "lemma"):
+            return r
+        if self.replays(job, search):
+            return r
+        why = (
+            f"not decided for the code: it depends on div:{hit[0]}, where a divisor can be zero "
+            f"(the code computes IEEE 754's infinity or NaN there; the engine's x/0 is any value)"
+        )
+        return replace(r, verdict="unknown", detail=why, counterexample=None, caveat="")
 
     def caveat(self, job: Job, verdict: Verdict, search: Search | None) -> str:
         """Why a verdict decided over the reals may not hold for the code's binary64, or "" when it does."""
@@ -125,9 +146,8 @@ class DataChecker:
             return ""
         if job.parametric not in self._rounding:
             self._rounding[job.parametric] = Rounding(self.m, job.parametric)
-        witness = job.kind in ("reachability", "dead-transition") and search.path is not None
-        if witness and search.path is not None and follows(self.m, self.trace(search.path)):
-            return ""  # the witness is a run of the code too: replayed in binary64, it fires the same
+        if self.replays(job, search):
+            return ""  # the witness is a run of the code too
         proved = search.answer == "unreachable" and not search.on_real
         abstracted = self.abstractable if proved and not _reads_validity(*job.exprs) else frozenset()
         fault = self._rounding[job.parametric].at_fault(job.exprs, abstracted)
@@ -197,9 +217,10 @@ class DataChecker:
             )
         ]
         jobs = self.jobs()
-        for job in jobs:
-            results.append(self.result(job))
-        return [*results[:1], *undivided(m, jobs, results[1:])]
+        divisions = {job.prop: self.result(job) for job in jobs if job.kind == "division"}
+        self.unsafe = {p.removeprefix("div:") for p, r in divisions.items() if r.verdict != "holds"}
+        results += [divisions[job.prop] if job.prop in divisions else self.result(job) for job in jobs]
+        return results
 
     def jobs(self) -> list[Job]:
         """Every check but determinism, in report order."""

@@ -1,16 +1,15 @@
 """Where the generated code's arithmetic can part from the engine's: the elements that divide (`div:`), those
-that compute ints which intervals cannot keep within 64 bits (`ovf:`), and the verdicts that a division by a
-divisor that can be zero leaves undecided for the code."""
+that compute ints which intervals cannot keep within 64 bits (`ovf:`), and the elements a verdict depends on (its
+cone), which a division by a divisor that can be zero leaves undecided for the code."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Literal
 
 from mlca_verify.intervals import Interval, enclose, machine_intervals
-from mlca_verify.logic.results import Result
 from mlca_verify.model import Arith, Call, Expr, Machine, Neg, Num, Var, bodies, name_types, nodes, type_of
 
 INT64 = (-(2**63), 2**63 - 1)  # the generated code's ints
@@ -92,25 +91,10 @@ def _reads(m: Machine, exprs: Sequence[Expr]) -> set[str]:
     return seen
 
 
-def undivided(m: Machine, jobs: Sequence[object], results: list[Result]) -> list[Result]:
-    """The results, with every verdict that depends on a division whose `div:` check does not hold made unknown:
-    z3 gives x/0 an arbitrary value, the code IEEE 754's infinity or NaN."""
-    unsafe = {r.prop.removeprefix("div:") for r in results if r.kind == "division" and r.verdict != "holds"}
-    if not unsafe:
-        return results
+def division_cone(m: Machine, exprs: Sequence[Expr], prop: str) -> set[str]:
+    """The elements a verdict depends on, by the names `division_sites` gives them: the step's (every guard,
+    update, `every` and assumption, with what they read) and what the property's `exprs` read; `prop` itself."""
     step = [t.guard for t in m.transitions] + [u.expr for t in m.transitions for u in t.updates]
     step += [v.every for v in m.variables if v.every is not None] + [a.expr for a in m.assumptions]
     in_step = _reads(m, step) | {t.id for t in m.transitions} | {v.name for v in m.variables}
-    marked = []
-    for job, r in zip(jobs, results, strict=True):
-        cone = in_step | _reads(m, getattr(job, "exprs", ())) | {r.prop}
-        hit = sorted(unsafe & cone)
-        if r.kind in ("division", "lemma") or r.verdict == "unknown" or not hit:
-            marked.append(r)
-            continue
-        why = (
-            f"not decided for the code: it depends on div:{hit[0]}, where a divisor can be zero "
-            f"(the code computes IEEE 754's infinity or NaN there; the engine's x/0 is any value)"
-        )
-        marked.append(replace(r, verdict="unknown", detail=why, counterexample=None, caveat=""))
-    return marked
+    return in_step | _reads(m, exprs) | {prop}
