@@ -92,6 +92,7 @@ class Rounding:
         self.grains = self._variable_grains()
         self.exact_variables = self._exact_variables()
         self._robust: dict[tuple[Cmp, bool], bool] = {}
+        self._step: dict[frozenset[str], list[Cmp]] = {}  # the step's comparisons, by the definitions left out
 
     # --- bounds ---------------------------------------------------------------------------------------
 
@@ -219,9 +220,11 @@ class Rounding:
         own = self._read(list(exprs), abstracted)
         if not step:
             return own
-        todo = [t.guard for t in self.m.transitions] + [u.expr for t in self.m.transitions for u in t.updates]
-        todo += [v.every for v in self.m.variables if v.every is not None]
-        return own + [c for c in self._read(todo, abstracted) if c not in own]
+        if abstracted not in self._step:
+            todo = [t.guard for t in self.m.transitions] + [u.expr for t in self.m.transitions for u in t.updates]
+            todo += [v.every for v in self.m.variables if v.every is not None]
+            self._step[abstracted] = self._read(todo, abstracted)
+        return own + [c for c in self._step[abstracted] if c not in own]
 
     def _read(self, todo: list[Expr], abstracted: frozenset[str]) -> list[Cmp]:
         seen: set[str] = set()

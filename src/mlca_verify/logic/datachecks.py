@@ -14,7 +14,16 @@ from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso
 from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.replay64 import follows
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
-from mlca_verify.logic.sites import INT64, OverflowSite, Site, division_cone, division_sites, divisions, overflow_sites
+from mlca_verify.logic.sites import (
+    INT64,
+    OverflowSite,
+    Site,
+    division_cone,
+    division_sites,
+    divisions,
+    overflow_sites,
+    step_cone,
+)
 from mlca_verify.logic.symbolic import (
     Frame,
     Monitor,
@@ -72,6 +81,7 @@ class DataChecker:
         self._systems: dict[tuple[object, ...], System] = {}
         self._rounding: dict[bool, Rounding] = {}
         self.unsafe: set[str] = set()  # the elements whose div: check does not hold
+        self._step_cone: frozenset[str] | None = None
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -129,7 +139,11 @@ class DataChecker:
     def undivided(self, job: Job, r: Result, search: Search | None) -> Result:
         """`r`, made unknown when it depends on a division whose divisor can be zero (z3 gives x/0 any value,
         the code IEEE 754's infinity or NaN), unless no search decided it or its witness is a run of the code."""
-        hit = sorted(self.unsafe & division_cone(self.m, job.exprs, job.prop))
+        if not self.unsafe:
+            return r
+        if self._step_cone is None:
+            self._step_cone = step_cone(self.m)
+        hit = sorted(self.unsafe & division_cone(self.m, self._step_cone, job.exprs, job.prop))
         if not hit or search is None or r.verdict == "unknown" or job.kind in ("division", "lemma"):
             return r
         if self.replays(job, search):

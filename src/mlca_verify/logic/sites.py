@@ -91,10 +91,15 @@ def _reads(m: Machine, exprs: Sequence[Expr]) -> set[str]:
     return seen
 
 
-def division_cone(m: Machine, exprs: Sequence[Expr], prop: str) -> set[str]:
-    """The elements a verdict depends on, by the names `division_sites` gives them: the step's (every guard,
-    update, `every` and assumption, with what they read) and what the property's `exprs` read; `prop` itself."""
+def step_cone(m: Machine) -> frozenset[str]:
+    """The elements every step depends on, by the names `division_sites` gives them: every transition and
+    variable, and what the guards, updates, `every` and assumptions read."""
     step = [t.guard for t in m.transitions] + [u.expr for t in m.transitions for u in t.updates]
     step += [v.every for v in m.variables if v.every is not None] + [a.expr for a in m.assumptions]
-    in_step = _reads(m, step) | {t.id for t in m.transitions} | {v.name for v in m.variables}
-    return in_step | _reads(m, exprs) | {prop}
+    return frozenset(_reads(m, step) | {t.id for t in m.transitions} | {v.name for v in m.variables})
+
+
+def division_cone(m: Machine, step: frozenset[str], exprs: Sequence[Expr], prop: str) -> frozenset[str]:
+    """The elements a verdict depends on: the step's (`step_cone`), what the property's `exprs` read, and
+    `prop` itself."""
+    return step | _reads(m, exprs) | {prop}
