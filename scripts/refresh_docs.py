@@ -2,18 +2,17 @@
 
 A block is a fenced `text` block right after a comment `<!-- $ mlca-verify ARGS -->`. tests/test_docs.py fails
 when a block differs from what the command prints; run `.venv/bin/python scripts/refresh_docs.py` to refresh.
+Each command runs in a new interpreter from the repository's root, as a user runs it: what a process built
+before (a test worker's other tests) cannot reach its output.
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
 import re
 import shlex
+import subprocess
 import sys
 from pathlib import Path
-
-from mlca_verify.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = [ROOT / "docs" / "findings.md", ROOT / "README.md"]
@@ -21,10 +20,15 @@ BLOCK = re.compile(r"(<!-- \$ mlca-verify (?P<args>[^\n]*?) -->\n```text\n)(?P<b
 
 
 def run(args: str) -> str:
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        main(shlex.split(args))
-    return out.getvalue()
+    ran = subprocess.run(
+        [sys.executable, "-m", "mlca_verify", *shlex.split(args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    return ran.stdout
 
 
 def refresh(text: str) -> str:
