@@ -127,26 +127,26 @@ class DataChecker:
                 assumptions=self.assumed,
                 notes=tuple(search.notes) + ((search.reason,) if search.reason else ()),
             )
-        caveat = self.caveat(job, verdict, search)
+        replayed = self.replays(job, search)
+        caveat = "" if replayed else self.caveat(job, verdict, search)
         result = Result(job.prop, job.kind, verdict, job.expected, job.cite, seconds, trace, detail, proof, caveat)
-        return self.undivided(job, result, search)
+        return result if replayed else self.undivided(job, result, search)
 
     def replays(self, job: Job, search: Search | None) -> bool:
         """Is the job's witness a run of the code too (replayed in binary64, it fires the same transitions)?"""
-        witness = job.kind in ("reachability", "dead-transition") and search is not None
+        witness = job.kind in ("reachability", "dead-transition")
         return witness and search is not None and search.path is not None and follows(self.m, self.trace(search.path))
 
     def undivided(self, job: Job, r: Result, search: Search | None) -> Result:
         """`r`, made unknown when it depends on a division whose divisor can be zero (z3 gives x/0 any value,
-        the code IEEE 754's infinity or NaN), unless no search decided it or its witness is a run of the code."""
+        the code IEEE 754's infinity or NaN), unless no search decided it (a witness that is a run of the code is
+        not brought here)."""
         if not self.unsafe:
             return r
         if self._step_cone is None:
             self._step_cone = step_cone(self.m)
         hit = sorted(self.unsafe & division_cone(self.m, self._step_cone, job.exprs, job.prop))
         if not hit or search is None or r.verdict == "unknown" or job.kind in ("division", "lemma"):
-            return r
-        if self.replays(job, search):
             return r
         why = (
             f"not decided for the code: it depends on div:{hit[0]}, where a divisor can be zero "
@@ -160,8 +160,6 @@ class DataChecker:
             return ""
         if job.parametric not in self._rounding:
             self._rounding[job.parametric] = Rounding(self.m, job.parametric)
-        if self.replays(job, search):
-            return ""  # the witness is a run of the code too
         proved = search.answer == "unreachable" and not search.on_real
         abstracted = self.abstractable if proved and not _reads_validity(*job.exprs) else frozenset()
         fault = self._rounding[job.parametric].at_fault(job.exprs, abstracted)
