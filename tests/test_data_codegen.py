@@ -17,6 +17,7 @@ import pytest
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate
 from mlca_verify.conform import conform
+from mlca_verify.conform.data import WP_FLAGS
 from mlca_verify.spec import load_spec
 from mlca_verify.targets import import_generated
 from mlca_verify.tools import C_FLAGS
@@ -109,22 +110,23 @@ def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -
     mutated = source.replace(left, "@@").replace(right, left).replace("@@", right)
     (tmp_path / "mlca_t_fsm.c").write_text(mutated)
     shutil.copy2(GENERATED / "c" / "mlca_t_fsm.h", tmp_path)
-    flags = ["-wp", "-wp-prover", "z3", "-wp-timeout", "10", "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING"]
+    flags = ["-wp", "-wp-prover", "z3", *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING"]
     ran = subprocess.run(
-        ["frama-c", *flags, "-warn-special-float", "none", "-wp-prop=-binary64", str(tmp_path / "mlca_t_fsm.c")],
+        ["frama-c", *flags, str(tmp_path / "mlca_t_fsm.c")],
         check=False,
         cwd=tmp_path,
         capture_output=True,
         text=True,
         timeout=600,
     )
-    failed = {
-        line.split(" Goal ")[1].split(" :")[0]
+    unproved = {
+        line.split(" Goal ")[1].split(" ")[0]: line
         for line in ran.stdout.splitlines()
-        if "Goal" in line and "Valid" not in line
+        if " Goal " in line and "Valid" not in line
     }
-    assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in failed, ran.stdout[-2000:]
-    assert not any("urgent" in goal for goal in failed)
+    assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in unproved, ran.stdout[-2000:]
+    # the urgent behaviours still hold; a goal that only ran out of time on a loaded machine refutes nothing
+    assert not any("urgent" in goal and "Timeout" not in line for goal, line in unproved.items()), unproved
 
 
 @pytest.mark.slow

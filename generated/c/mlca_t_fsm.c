@@ -24,27 +24,28 @@ static int64_t mlca_t_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
 /*@ assigns \nothing; */
 static double mlca_t_div(double a, double b) { return a / b; }
 
-/* The spec in ACSL, for the contracts below: each definition and shared rule as a logic function (a predicate
- * when boolean) of the context, inputs and params as values; each transition's condition; the transition that
- * fires; and the whole step as a relation between the context before and after. Ints are exact (WP proves that
- * no C operation on them overflows). A function that computes on reals is declared without a body: z3 decides
+/* The spec in ACSL, for the contracts below: each definition and shared rule as a logic function (a boolean term
+ * when boolean, so that it may also be the condition of a term) of the context, inputs and params as values; each
+ * transition's condition; the transition that fires; and the whole step as a relation between the context before
+ * and after. Ints are exact (WP proves that no C operation on them overflows). A definition that computes on
+ * reals, and each part of a guard, update, output or register that does, is declared without a body: z3 decides
  * binary64 by bit-blasting and runs out of memory on it, so the C function's ensures clause that links it to its
  * symbol is the one goal left unproved for it, and the exhaustive and sequence checks compare that C bit for bit
  * with the spec's semantics instead. */
 /*@ axiomatic mlca_t_binary64_shape2 {
-  @   predicate mlca_t_lshape2(double s__0, double s__1, double s__2, double s__3, double s__4, mlca_t_params_t p);
+  @   logic boolean mlca_t_lshape2(double s__0, double s__1, double s__2, double s__3, double s__4, mlca_t_params_t p);
   @ }
   @*/
-/*@ predicate mlca_t_l_L(mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_l_L(mlca_t_inputs_t i, mlca_t_params_t p) =
   @   mlca_t_lshape2(i.gap_lead_left, i.v, i.v_lead_left, i.gap_follow_left, i.v_follow_left, p);
   @*/
-/*@ predicate mlca_t_l_R(mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_l_R(mlca_t_inputs_t i, mlca_t_params_t p) =
   @   mlca_t_lshape2(i.gap_lead_right, i.v, i.v_lead_right, i.gap_follow_right, i.v_follow_right, p);
   @*/
-/*@ predicate mlca_t_l_W(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_l_W(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((!(i.U != 0)) && (c.waited < p.T_MIN));
   @*/
-/*@ predicate mlca_t_lprev0(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_lprev0(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((c.mode == MLCA_T_IDLE) || (c.mode == MLCA_T_WAITING));
   @*/
 /* when1: reset */
@@ -156,6 +157,7 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @     && ((n.prev0 != 0) <==> mlca_t_lprev0(n, i, p))
   @     && n.first == 0);
   @*/
+/* mlca_t_outputs_l(c, i, p, o): the outputs after the step */
 /*@ predicate mlca_t_outputs_l(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, mlca_t_outputs_t o) =
   @   (o.command == ((c.mode == MLCA_T_MOVING_LEFT) ? 1 : ((c.mode == MLCA_T_MOVING_RIGHT) ? -1 : 0))) && \true;
   @*/

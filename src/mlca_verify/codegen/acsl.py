@@ -1,9 +1,10 @@
 """Expressions of a machine with data as ACSL, the logic the generated C's contracts are written in.
 
 The logic reads the same view as the code (`lower`), but as values: the context `c`, the inputs `i` and the
-params `p` are structs, not pointers. Booleans are predicates; ints are mathematical integers (WP proves that no
-C operation on them overflows, so the two agree); each operation on reals is rounded to binary64 with a cast, as
-the C computes it. A definition is a logic function (a predicate when boolean) of the context, inputs and params.
+params `p` are structs, not pointers. Booleans are boolean terms (read as predicates where one is due); ints are
+mathematical integers (WP proves that no C operation on them overflows, so the two agree); each operation on
+reals is rounded to binary64 with a cast, as the C computes it. A definition is a logic function of the
+context, inputs and params.
 """
 
 from __future__ import annotations
@@ -31,7 +32,10 @@ from mlca_verify.model import (
     stateful_definitions,
 )
 
-CONNECTIVES = {"and": "&&", "or": "||", "->": "==>", "<->": "<==>"}
+# Every boolean is a term (ACSL's `boolean`), so that one text serves as a condition of `? :` inside a term as
+# well as in a predicate: implication and equivalence, which ACSL has only between predicates, are written with
+# the connectives terms have.
+CONNECTIVES = {"and": "&&", "or": "||", "<->": "=="}
 
 
 def context_free(m: Machine) -> frozenset[str]:
@@ -45,8 +49,10 @@ def context_free(m: Machine) -> frozenset[str]:
 class AcslLowering(Lowering):
     """ACSL text of expressions over the logic view `c`, `i`, `p` (and `o` for outputs)."""
 
-    def __init__(self, names: Names, free: frozenset[str] = frozenset()) -> None:
-        super().__init__(names, "acsl")
+    def __init__(
+        self, names: Names, free: frozenset[str] = frozenset(), calls: Mapping[int, str] | None = None
+    ) -> None:
+        super().__init__(names, "acsl", calls)
         self.free = free  # the definitions that take no context (see `context_free`)
 
     @classmethod
@@ -59,6 +65,8 @@ class AcslLowering(Lowering):
         return f"{i}, {p}" if definition in self.free else f"{c}, {i}, {p}"
 
     def go(self, e: Expr, prevs: Mapping[Prev, str] | None = None) -> str:
+        if self.calls and id(e) in self.calls:
+            return self.calls[id(e)]
         if isinstance(e, Const):
             return "\\true" if e.value else "\\false"
         if isinstance(e, Num):
@@ -71,7 +79,8 @@ class AcslLowering(Lowering):
         if isinstance(e, Not):
             return f"(!{self.go(e.arg, prevs)})"
         if isinstance(e, BinOp):
-            return f"({self.go(e.left, prevs)} {CONNECTIVES[e.op]} {self.go(e.right, prevs)})"
+            a, b = self.go(e.left, prevs), self.go(e.right, prevs)
+            return f"((!{a}) || {b})" if e.op == "->" else f"({a} {CONNECTIVES[e.op]} {b})"
         if isinstance(e, Prev):
             if prevs is None:
                 raise ValueError("prev() outside a property")

@@ -10,10 +10,11 @@ from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_literal
+from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.errors import CodegenError
 from mlca_verify.model import Definition as SpecDefinition
-from mlca_verify.model import Expr, Machine, Num, Type, Var, nodes, prevs_of, show
+from mlca_verify.model import Expr, Machine, Num, Type, Var, nodes, prevs_of, show, stateful_definitions
 
 
 @dataclass(frozen=True)
@@ -99,6 +100,18 @@ class Register:
 
 
 @dataclass(frozen=True)
+class Rounded:
+    """A part of a guard, update, output or register that computes on reals, in a C function of its own (see
+    `rounded`): `code.c` is its body, over the same view as a definition's."""
+
+    index: int
+    ctype: str
+    code: Code
+    free: bool
+    users: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class Property:
     index: int
     id: str
@@ -133,6 +146,7 @@ class DataIR:
     shapes: tuple[SharedShape, ...] = ()
     used: frozenset[str] = frozenset()  # the definitions whose functions the code calls
     guards: tuple[Code, ...] = ()  # of each transition, by its number from 1
+    rounded: tuple[Rounded, ...] = ()  # the parts that compute on reals, each a function (see `rounded`)
 
 
 PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
@@ -149,6 +163,10 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     names = names_of(m, module, macro)
     c, py = Lowering(names, "c"), Lowering(names, "py")
     logic = AcslLowering(names, context_free(m))
+    parts, at = rounded_parts(m, names.types, stateful_definitions(m.definitions, (v.name for v in m.variables)))
+    stated_c = Lowering(names, "c", {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()})
+    call = {p.index: f"{module}_lb64_{p.index}({'i, p' if p.free else 'c, i, p'})" for p in parts}
+    stated_l = AcslLowering(names, logic.free, {n: call[k] for n, k in at.items()})
     for inv in m.invariants:
         if any(
             isinstance(x, Var) and names.kinds[x.name] == "output" for p in prevs_of(inv.expr) for x in nodes(p.arg)
@@ -161,8 +179,13 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         prev = c_prev if with_prev else None
         return Code(c.go(e, prev), py.go(e, prev), show(e), "" if with_prev else logic.go(e))
 
-    def typed(e: Expr, kind: Type) -> Code:
-        return Code(c.as_type(e, kind, None), py.as_type(e, kind, None), show(e), logic.as_type(e, kind, None))
+    def stated(e: Expr, kind: Type) -> Code:
+        """What the step's contract states: the parts that compute on reals read through their functions."""
+        if id(e) in at and parts[at[id(e)]].kind == kind:  # the whole value, converted inside the function
+            return Code(stated_c.go(e), py.as_type(e, kind, None), show(e), stated_l.go(e))
+        return Code(
+            stated_c.as_type(e, kind, None), py.as_type(e, kind, None), show(e), stated_l.as_type(e, kind, None)
+        )
 
     def number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
         low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
@@ -184,7 +207,9 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             s,
             k,
             tuple(
-                Branch(numbers[t.id], t.id, t.target, code(t.guard), t.cite) for t in m.transitions if t.applies_to(s)
+                Branch(numbers[t.id], t.id, t.target, stated(t.guard, "bool"), t.cite)
+                for t in m.transitions
+                if t.applies_to(s)
             ),
         )
         for k, s in enumerate(m.states)
@@ -194,9 +219,12 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             v.name,
             c_type(v.type, v.range),
             tuple(
-                (numbers[t.id], typed(u.expr, v.type)) for t in m.transitions for u in t.updates if u.variable == v.name
+                (numbers[t.id], stated(u.expr, v.type))
+                for t in m.transitions
+                for u in t.updates
+                if u.variable == v.name
             ),
-            typed(v.every, v.type) if v.every is not None else None,
+            stated(v.every, v.type) if v.every is not None else None,
         )
         for v in m.variables
     )
@@ -218,17 +246,22 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         definitions=tuple(_definition(d, c, py, logic, uses.get(d.name)) for d in m.definitions),
         shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
-            Definition(o.name, c_type(o.type), PY_TYPES[o.type], typed(o.expr, o.type), o.doc, o.cite)
+            Definition(o.name, c_type(o.type), PY_TYPES[o.type], stated(o.expr, o.type), o.doc, o.cite)
             for o in m.outputs
         ),
         cases=cases,
         updates=updates,
         registers=tuple(
-            Register(k, c_type(c.type_of(p.arg)), PY_TYPES[c.type_of(p.arg)], code(p.arg)) for p, k in prevs.items()
+            Register(k, c_type(c.type_of(p.arg)), PY_TYPES[c.type_of(p.arg)], stated(p.arg, c.type_of(p.arg)))
+            for p, k in prevs.items()
         ),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
-        guards=tuple(code(t.guard) for t in m.transitions),
+        guards=tuple(stated(t.guard, "bool") for t in m.transitions),
+        rounded=tuple(
+            Rounded(p.index, c_type(p.kind), Code(c.as_type(p.expr, p.kind, None), "", show(p.expr)), p.free, p.users)
+            for p in parts
+        ),
     )
     text = repr(replace(ir, definitions=()))
     used: set[str] = set()

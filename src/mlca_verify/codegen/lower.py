@@ -82,11 +82,13 @@ def names_of(m: Machine, prefix: str, macro: str) -> Names:
 
 
 class Lowering:
-    """One language's text of expressions. `lang` is "c" or "py"."""
+    """One language's text of expressions. `lang` is "c" or "py". `calls` gives, for a node of the spec (by its
+    identity), the text that reads it instead: a call of the function that computes it (see `rounded`)."""
 
-    def __init__(self, names: Names, lang: str) -> None:
+    def __init__(self, names: Names, lang: str, calls: Mapping[int, str] | None = None) -> None:
         self.n = names
         self.lang = lang
+        self.calls = calls or {}
 
     def type_of(self, e: Expr) -> Type:
         return type_of(e, self.n.types)
@@ -95,6 +97,8 @@ class Lowering:
 
     def go(self, e: Expr, prevs: Mapping[Prev, str] | None = None) -> str:
         """The expression, fully parenthesised (no precedence to get wrong in either language)."""
+        if self.calls and id(e) in self.calls:
+            return self.calls[id(e)]
         c = self.lang == "c"
         if isinstance(e, Const):
             return ("true" if e.value else "false") if c else ("True" if e.value else "False")

@@ -485,10 +485,20 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
 
 
 def binary64_goals(ir: DataIR) -> list[str]:
-    """The ensures clauses WP is not asked to prove: the C functions that compute on reals."""
-    shapes = [f"{ir.module}_shape{sh.index}" for sh in ir.shapes if not sh.exact]
-    defs = [f"{ir.module}_def_{d.name}" for d in ir.definitions if d.name in ir.used and not d.exact]
-    return [f"{name}: ensures" for name in (*shapes, *defs)]
+    """The clauses labelled `binary64`, which WP is not asked to prove: the link of each C function that computes
+    on reals to its logic symbol, and what the step, the reset and the outputs say of the real variables,
+    registers and outputs (see `codegen.rounded`)."""
+    p = ir.module
+    names = [f"{p}_shape{sh.index}" for sh in ir.shapes if not sh.exact]
+    names += [f"{p}_def_{d.name}" for d in ir.definitions if d.name in ir.used and not d.exact]
+    names += [f"{p}_b64_{r.index}" for r in ir.rounded]
+    names += [f"{p}_reg{r.index}" for r in ir.registers if r.ctype == "double"]
+    clauses = [f"{name}: ensures" for name in names]
+    if any(f.ctype == "double" for f in ir.variables) or any(r.ctype == "double" for r in ir.registers):
+        clauses += [f"{p}_reset: ensures (reals)", f"{p}_init: ensures (reals)", f"{p}_step: ensures (real variables)"]
+    if any(o.ctype == "double" for o in ir.outputs):
+        clauses += [f"{p}_outputs: ensures (reals)", f"{p}_step: ensures (real outputs)"]
+    return clauses
 
 
 def cppcheck(t: DataTarget) -> CheckOutcome:

@@ -1,0 +1,116 @@
+"""The parts of a step that compute on reals: each comparison with a real operand and each real value computed
+from others is a C function of its own, so that the step's contract holds no binary64 operation and WP proves
+the rest exactly; the code they compute is the code that ran before."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from mlca_verify.codegen import data_ir, generate, write
+from mlca_verify.codegen.rounded import parts_of, rounded_parts
+from mlca_verify.conform import conform
+from mlca_verify.conform.data import binary64_goals
+from mlca_verify.model import name_types, show
+from mlca_verify.spec import load_spec
+from mlca_verify.spec.expr_parser import parse_expr
+from tests.conftest import ROOT
+
+FIXTURES = ROOT / "tests" / "fixtures"
+TYPES = {"x": "real", "step": "real", "n": "int", "go": "bool"}
+
+
+def _parts(text: str, target: str) -> list[tuple[str, str]]:
+    return [(show(e), kind) for e, kind in parts_of(parse_expr(text)[0], target, TYPES)]  # type: ignore[arg-type]
+
+
+def test_comparisons_with_a_real_operand_are_parts_and_the_rest_stays() -> None:
+    assert _parts("go and x > 0.25", "bool") == [("x > 0.25", "bool")]
+    assert _parts("if x > 2.0 then min(n + 1, 10) else 0", "int") == [("x > 2.0", "bool")]
+    assert _parts("n > 2 and (x < 1.0 or n == 3.5)", "bool") == [("x < 1.0", "bool"), ("n == 3.5", "bool")]
+    assert _parts("go and n > 2", "bool") == []
+
+
+def test_a_real_value_is_one_part_unless_it_is_read_as_it_is() -> None:
+    assert _parts("min(x + step, 100.0)", "real") == [("min(x + step, 100.0)", "real")]
+    assert _parts("n + 1", "real") == [("n + 1", "real")]  # converted inside the function
+    assert _parts("x", "real") == []
+    assert _parts("0.5", "real") == []
+    assert _parts("-0.5", "real") == []
+
+
+def test_equal_parts_are_one_function_and_know_who_reads_them() -> None:
+    m = load_spec(FIXTURES / "real_unbounded.toml", compare=False).machine
+    parts, at = rounded_parts(m, name_types(m), ())
+    shown = [show(p.expr) for p in parts]
+    assert len(shown) == len(set(shown))
+    assert [p.kind for p in parts if show(p.expr) == "x > 2.0"] == ["bool"]
+    assert any("the register prev0" in p.users for p in parts)
+    assert set(at.values()) == {p.index for p in parts}
+    assert not any(p.free for p in parts)  # each reads the variable x
+
+
+def test_the_generated_step_reads_each_part_through_its_function(tmp_path: Path) -> None:
+    spec = load_spec(FIXTURES / "real_state.toml", compare=False)
+    files = generate(spec, tmp_path)
+    source = files["c/ra_fsm.c"]
+    # the contract's transition conditions and next-state relation hold no binary64 comparison or operation
+    logic = "".join(re.findall(r"/\*@ predicate ra_(?:when\d|next)\(.*?\*/", source, re.S))
+    assert "ra_lb64_0(c, i, p)" in logic
+    assert not re.search(r"c\.x\s*[<>=]|\+ p\.step", logic), logic
+    clauses = re.findall(r"@ (check )?ensures binary64: (.*)", source)
+    assert len(clauses) == len(binary64_goals(data_ir(spec, tmp_path))) == 7  # conform lists each one
+    # a clause that callers assume links a boolean; one over doubles is only checked, never assumed: an ACSL
+    # equality between doubles among a goal's hypotheses makes z3 bit-blast
+    assert all(check or text.startswith("((\\result != 0) <==>") for check, text in clauses), clauses
+    py = files["python/ra_fsm.py"]
+    assert "(c.x > 0.25)" in py  # the Python is as before: one expression
+    write(files, tmp_path)
+    ran = subprocess.run(
+        [
+            "cc",
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-c",
+            "-o",
+            str(tmp_path / "ra.o"),
+            str(tmp_path / "c/ra_fsm.c"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert ran.returncode == 0, ran.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fixture", ["real_state.toml", "real_unbounded.toml"])
+def test_wp_proves_the_step_of_a_machine_with_real_variables(tmp_path: Path, fixture: str) -> None:
+    spec = load_spec(FIXTURES / fixture, compare=False)
+    write(generate(spec, tmp_path), tmp_path)
+    outcomes = conform(spec, tmp_path, ["exhaustive", "sequences", "frama-c-wp"], lambda _: None).outcomes
+    assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
+    wp = next(o for o in outcomes if o.name == "frama-c-wp").data
+    assert wp["proved"] == wp["goals"] > 30
+    assert wp["binary64"] == binary64_goals(data_ir(spec, tmp_path))
+    assert any("_b64_" in g for g in wp["binary64"])
+    certified = wp["certified"]  # the invariants over ints, proved on the step with their certificates
+    assert certified["proved"] == certified["goals"] and "n-range" in certified["stated"]
+
+
+@pytest.mark.slow
+def test_boolean_definitions_are_terms_where_acsl_needs_one(tmp_path: Path) -> None:
+    """A boolean definition as the condition of an if-then-else in an update, in a comparison of two booleans,
+    and an implication inside one: Frama-C used to refuse the file ("a predicate, not a function")."""
+    spec = load_spec(FIXTURES / "boolean_terms.toml", compare=False)
+    write(generate(spec, tmp_path), tmp_path)
+    outcomes = conform(spec, tmp_path, ["exhaustive", "frama-c-wp"], lambda _: None).outcomes
+    assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
+    wp = next(o for o in outcomes if o.name == "frama-c-wp").data
+    assert wp["proved"] == wp["goals"] > 30 and wp["binary64"] == []
+    assert "on-only-when-hot-or-just-released" in wp["certified"]["stated"]
