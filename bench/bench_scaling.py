@@ -21,7 +21,7 @@ from mlca_verify.spec import load_spec
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tests.test_scaling import wide_spec  # noqa: E402
+from bench.wide import wide_spec  # noqa: E402
 
 SIZES = (250, 500, 1000, 2000)
 QUERIES = [0]

@@ -15,8 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from mlca_verify.layout import Layout
 from mlca_verify.spec import load_spec
-from mlca_verify.targets import Layout
 from mlca_verify.testgen import target
 from mlca_verify.testgen.command import generate_fresh, host_run, write_suite
 from mlca_verify.testgen.suite import DEPTH, generate

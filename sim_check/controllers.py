@@ -18,6 +18,7 @@ from typing import Any, Literal
 
 from mlca_verify.codegen import data_ir, machine_ir
 from mlca_verify.errors import UsageError
+from mlca_verify.layout import Layout
 from mlca_verify.model import Machine, evaluate
 from mlca_verify.spec import load_spec
 from mlca_verify.targets import (
@@ -25,7 +26,6 @@ from mlca_verify.targets import (
     STATE_BITS,
     DataCMachine,
     DataPythonMachine,
-    Layout,
     PythonMachine,
     build_c,
     build_data_c,

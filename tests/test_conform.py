@@ -17,10 +17,10 @@ from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.conform import conform
 from mlca_verify.conform.checks import CheckOutcome, Target, cppcheck, frama_c
+from mlca_verify.layout import Layout
 from mlca_verify.logic import check_all
 from mlca_verify.model import Machine
 from mlca_verify.spec import LoadedSpec, load_spec
-from mlca_verify.targets import Layout
 from tests.conftest import ROOT
 from tests.strategies import machines
 

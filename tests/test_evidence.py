@@ -153,7 +153,8 @@ def test_a_database_without_the_simulation_part_is_one_line(
 ) -> None:
     db = tmp_path / "results.sqlite"
     db.write_bytes(b"")
-    monkeypatch.setitem(sys.modules, "sim_check.db", None)  # importing it fails, as without sim_check
+    for module in ("sim_check.db", "sim_check.evidence_reader"):  # importing them fails, as without sim_check
+        monkeypatch.setitem(sys.modules, module, None)
     assert main(["evidence", "spec/mlca.toml", "--db", str(db), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"{db}: error: --db needs the simulation part of mlca-verify") and err.count("\n") == 1

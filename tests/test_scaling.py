@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 import z3
+from bench.wide import wide_spec
 
 from mlca_verify.codegen import machine_ir
 from mlca_verify.errors import SpecError
@@ -18,27 +19,6 @@ from mlca_verify.logic.solver import Solver
 from mlca_verify.logic.tables import MAX_TABLE_INPUTS, MAX_WRITTEN_OUT
 from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec, load_text
-
-
-def wide_spec(n: int, style: str = "shadowed", semantics: str = "first-match", n_inputs: int = 5) -> str:
-    """States A, B, C; `n` transitions out of A. `shadowed`: guards `x and y{k % 5}` (only the first five fire);
-    `cubes`: pairwise disjoint cubes over the inputs (every one fires), alternating between B and C."""
-    ys = [f"y{i}" for i in range(n_inputs)]
-    lines = ["[machine]", 'name = "Wide"', 'initial = "A"', 'states = ["A", "B", "C"]', f'semantics = "{semantics}"']
-    lines += ['cite = "test"', "", "[inputs]", 'x = { doc = "x", cite = "test" }']
-    lines += [f'{y} = {{ doc = "{y}", cite = "test" }}' for y in ys]
-    for k in range(n):
-        if style == "shadowed":
-            when, to = f"x and y{k % 5}", "B"
-        else:
-            when = " and ".join(["x", *[y if (k >> i) & 1 else f"not {y}" for i, y in enumerate(ys)]])
-            to = "BC"[k % 2]
-        lines += ["", "[[transition]]", f'id = "t{k}"', 'from = "A"', f'to = "{to}"', f'when = "{when}"']
-        lines += ['cite = "test"']
-    for source in ("B", "C"):
-        lines += ["", "[[transition]]", f'id = "back_{source}"', f'from = "{source}"', 'to = "A"', 'when = "not x"']
-        lines += ['cite = "test"']
-    return "\n".join(lines) + "\n"
 
 
 def wide(n: int, style: str = "shadowed", semantics: str = "first-match", n_inputs: int = 5) -> Machine:

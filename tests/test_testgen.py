@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from mlca_verify.cli import main
 from mlca_verify.model import BinOp, Const, Expr, Machine, Not, Prev, StateIn
 from mlca_verify.spec import load_spec
-from mlca_verify.testgen.formats import cobertura_from_lcov
+from mlca_verify.testgen.cobertura import cobertura_from_lcov
 from mlca_verify.testgen.objectives import Decision, objectives
 from mlca_verify.testgen.search import Found, Pair, Search, Unrolling
 from mlca_verify.testgen.suite import generate

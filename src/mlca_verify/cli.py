@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mlca_verify import __version__, ci_formats, cli_base, report
+from mlca_verify import ci_formats, cli_base, report
 from mlca_verify.cli_base import (
     DEPTH_LIMIT,
     EXIT_FINDING,
@@ -35,7 +35,7 @@ from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
-from mlca_verify.evidence import ClosedLoopRuns, check_replay, collect, loop_controllers, write_bundle
+from mlca_verify.evidence import check_replay, collect, read_closed_loop, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.logic import check_all, compare
@@ -51,6 +51,7 @@ from mlca_verify.spec.cites import uncited
 from mlca_verify.testgen.command import tests as run_tests
 from mlca_verify.testgen.suite import DEPTH
 from mlca_verify.tools import run
+from mlca_verify.version import __version__
 
 __all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
 
@@ -434,18 +435,8 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         work = "proofs, conformance (Frama-C WP takes about a minute), readings"
     say(f"collecting evidence for {args.spec}: {work}", flush=True)
     runs = None
-    if db is not None:  # read through the results database's API, before the long work starts
-        try:
-            from sim_check.db import ResultsDB
-        except ImportError as err:
-            raise UsageError(
-                f"{db}: error: --db needs the simulation part of mlca-verify (sim_check, with "
-                f"SUMO's libsumo), which cannot be imported here: {err}"
-            ) from None
-        with ResultsDB.open_for_reading(db) as results:
-            summary = results.monitor_summary(loop_controllers(spec))
-            fired = results.transition_counts(loop_controllers(spec))
-        runs = ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations, fired)
+    if db is not None:  # read through the results database's reader, before the long work starts
+        runs = read_closed_loop(db, spec)
     replay = _replay(Path(args.replay)) if args.replay else None
     tests_out = None if args.no_tests else Path(args.out) / "tests"
     ev = collect(spec, readings, Path(args.generated), runs, evidence_now(), replay=replay, tests_out=tests_out)

@@ -18,10 +18,10 @@ from mlca_verify.codegen.data_ir import DataIR, build_data_ir
 from mlca_verify.codegen.lower import Lowering, names_of, real_literal
 from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
+from mlca_verify.layout import Layout
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Expr, Liveness, Machine, prevs_of, show
 from mlca_verify.spec import LoadedSpec
-from mlca_verify.targets import Layout
 
 LOOP_REPEATS = 3  # a lasso's loop is replayed this many times
 

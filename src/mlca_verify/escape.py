@@ -16,6 +16,11 @@ _UNSAFE = re.compile(r"[^\x20-\x7e]")
 _XML_INVALID = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
 
 
+def c_form(name: str) -> str:
+    """A name as it appears inside generated C identifiers and file names (property ids may hold '-' and '.')."""
+    return re.sub(r"[-.]", "_", name)
+
+
 def _code(char: str) -> str:
     """A visible escape for one character, as Python writes it in a string literal."""
     if char in _NAMED:

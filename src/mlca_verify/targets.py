@@ -1,7 +1,7 @@
-"""The one owner of generated code: where each file of a machine lives, and how to load it.
+"""How generated code is loaded: imported, or built and imported, behind one small protocol.
 
-Every consumer (gen and its drift check, conform, emit, evidence, the closed loop) finds a machine's files through
-`Layout` and runs them through one small protocol, `Generated`: `step`, `holds` (the monitor on a state) and
+Every consumer (conform, emit, evidence, the closed loop) finds a machine's files through `layout.Layout` and
+runs them through one small protocol, `Generated`: `step`, `holds` (the monitor on a state) and
 `advance` (one step and the monitor on the state reached, answered as one int: the closed loop's call).
 
 Python is imported from its file; C is built with the interpreter's headers into an extension module whose
@@ -16,53 +16,22 @@ import importlib.util
 import sys
 import sysconfig
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
+from mlca_verify.codegen.data_ir import DataIR
+from mlca_verify.codegen.ir import MachineIR
+from mlca_verify.codegen.render import render_template
 from mlca_verify.errors import ToolError
+from mlca_verify.layout import Layout
 from mlca_verify.tools import build_shared
-
-if TYPE_CHECKING:  # codegen renders with this module's layout: imported where used, not at import time
-    from mlca_verify.codegen.data_ir import DataIR
-    from mlca_verify.codegen.ir import MachineIR
 
 HOLDS = 0x10000  # the bit of an `advance` answer that says every invariant holds in the state reached
 STATE_BITS = 0xFFFF  # the bits of an `advance` answer that are the state reached
 FIRED_SHIFT = 20  # a machine with data: its answer holds the number of the transition that fired, plus one, here
 FIRED_MASK = 0xFFF  # ... in these bits (after the shift)
 DEFS_SHIFT = 32  # ... and from here, one bit per boolean definition (`flag_definitions`), as the step saw it
-FILES = {"python": "python/{module}_fsm.py", "c-header": "c/{module}_fsm.h", "c-source": "c/{module}_fsm.c"}
-GENERATED_GLOB = "*/*_fsm.*"  # every file any machine's layout holds
-
-
-@dataclass(frozen=True)
-class Layout:
-    """Where the generated files of the machine `module` live under the folder `root` (`generated/`)."""
-
-    root: Path
-    module: str
-
-    def relative(self, kind: str) -> str:
-        """The path of one kind of file (a key of FILES) relative to `root`."""
-        return FILES[kind].format(module=self.module)
-
-    @property
-    def python(self) -> Path:
-        return self.root / self.relative("python")
-
-    @property
-    def c_source(self) -> Path:
-        return self.root / self.relative("c-source")
-
-    @property
-    def c_header(self) -> Path:
-        return self.root / self.relative("c-header")
-
-    def missing(self) -> list[Path]:
-        """The generated files that are not there."""
-        return [p for p in (self.python, self.c_header, self.c_source) if not p.is_file()]
 
 
 class Generated(Protocol):
@@ -196,8 +165,6 @@ def python_headers() -> Path:
 
 def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
     """Build the generated C of `layout` with its adapter into `build` and import it as the module `name`."""
-    from mlca_verify.codegen.render import render_template
-
     sources = []
     for template, stem in (("c_extension.c.j2", name), ("c_extension_bits.c.j2", f"{ir.module}_ext_bits")):
         source = build / f"{stem}.c"
@@ -214,8 +181,6 @@ def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
 def build_data_c(layout: Layout, ir: DataIR, build: Path, name: str) -> DataCMachine:
     """Build the generated C of the machine with data of `layout` with its adapter into `build` and import it as
     the module `name`; the adapter includes the generated source, which is compiled once, with it."""
-    from mlca_verify.codegen.render import render_template
-
     given = {
         "m": ir,
         "extension": name,

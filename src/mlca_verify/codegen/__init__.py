@@ -7,16 +7,16 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from mlca_verify import __version__
 from mlca_verify.codegen.data_ir import DataIR, build_data_ir
 from mlca_verify.codegen.ir import GENERATOR_NAME, MachineIR, build_ir, require_first_match
 from mlca_verify.codegen.render import TEMPLATE_DIR, render, render_data
 from mlca_verify.errors import CodegenError
 from mlca_verify.files import write_atomic
+from mlca_verify.layout import GENERATED_GLOB
 from mlca_verify.logic.graph import Encoding, explore
 from mlca_verify.logic.solver import Solver
 from mlca_verify.spec import LoadedSpec
-from mlca_verify.targets import GENERATED_GLOB
+from mlca_verify.version import __version__
 
 __all__ = ["Drift", "data_ir", "drift", "foreign", "generate", "machine_ir", "source_of", "write"]
 

@@ -12,8 +12,8 @@ from mlca_verify import escape
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
+from mlca_verify.layout import Layout
 from mlca_verify.model import BinOp, Const, Expr, Not, StateIn, Var, as_binop, show
-from mlca_verify.targets import Layout
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # shipped as package data
 TEMPLATES = {"python": "python_fsm.py.j2", "c-header": "c_fsm.h.j2", "c-source": "c_fsm.c.j2"}  # kinds of targets.FILES

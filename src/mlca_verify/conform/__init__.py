@@ -12,8 +12,8 @@ from mlca_verify.codegen import data_ir, drift, generate, machine_ir
 from mlca_verify.conform.checks import CHECKS, CheckOutcome, Target, run_checks
 from mlca_verify.conform.data import DATA_CHECKS, DataTarget
 from mlca_verify.errors import UsageError
+from mlca_verify.layout import Layout
 from mlca_verify.spec import LoadedSpec
-from mlca_verify.targets import Layout
 
 __all__ = ["CHECKS", "Conformance", "conform"]
 

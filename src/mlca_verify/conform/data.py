@@ -29,11 +29,12 @@ from mlca_verify.codegen.certified import Proved, certify, ranges
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
+from mlca_verify.layout import Layout
 from mlca_verify.logic.datachecks import check_data_machine
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.symbolic import System, python_value, value_of
 from mlca_verify.model import Machine, Type, prevs_of
-from mlca_verify.targets import Layout, import_generated
+from mlca_verify.targets import import_generated
 from mlca_verify.tools import C_FLAGS, run
 
 SANITIZE = ("-fsanitize=address,undefined,float-divide-by-zero", "-fno-sanitize-recover=all", "-g", "-O1")

@@ -7,9 +7,10 @@ import json
 import os
 from pathlib import Path
 
-from mlca_verify.evidence.collect import ClosedLoopRuns, Evidence, collect, loop_controllers
+from mlca_verify.evidence.collect import Evidence, collect
 from mlca_verify.evidence.page import render_page
 from mlca_verify.evidence.physics import check_replay
+from mlca_verify.evidence.runs import ClosedLoopRuns, loop_controllers, read_closed_loop
 from mlca_verify.files import write_atomic
 
 __all__ = [
@@ -19,6 +20,7 @@ __all__ = [
     "collect",
     "loop_controllers",
     "now",
+    "read_closed_loop",
     "write_bundle",
 ]
 

@@ -22,7 +22,6 @@ from typing import Any
 
 import z3
 
-from mlca_verify import __version__
 from mlca_verify.codegen import data_ir, machine_ir
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
@@ -32,6 +31,8 @@ from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
 from mlca_verify.evidence import coverage, physics
 from mlca_verify.evidence.page import anchor
+from mlca_verify.evidence.runs import ClosedLoopRuns
+from mlca_verify.layout import FILES, Layout
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.lemmas import named
 from mlca_verify.logic.results import Outcome, Result
@@ -39,8 +40,8 @@ from mlca_verify.model import BinOp, Machine, Range, StateIn, Type, show, show_n
 from mlca_verify.report import cube_text
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.types import show_unit
-from mlca_verify.targets import FILES, Layout
 from mlca_verify.tools import run
+from mlca_verify.version import __version__
 
 TOOL_VERSIONS = {
     "gcc": ["gcc", "--version"],
@@ -69,24 +70,6 @@ def tool_versions() -> dict[str, str]:
         except ToolError:
             versions[name] = "not installed"
     return versions
-
-
-@dataclass(frozen=True)
-class ClosedLoopRuns:
-    """The closed-loop runs of one machine's generated controllers (see `loop_controllers`) in a results
-    database written by `mlca-sim`, as its API counts them: the evidence takes them as data."""
-
-    db: Path
-    runs: int
-    failed_runs: int
-    monitor_violations: int
-    transitions: dict[str, int] = field(default_factory=dict)  # times each transition fired (schema 3 and on)
-
-
-def loop_controllers(spec: LoadedSpec) -> tuple[str, str]:
-    """The mlca-sim controllers that drive with the code generated from `spec`: its Python and its C."""
-    module = spec.machine.name.lower()
-    return f"{module}-py", f"{module}-c"
 
 
 @dataclass

@@ -19,12 +19,12 @@ from typing import Any
 
 import z3
 
+from mlca_verify.escape import c_form
 from mlca_verify.evidence import adrss
 from mlca_verify.logic.lemmas import lemma_scripts, named, reads
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, python_value, value_of
 from mlca_verify.model import BinOp, Definition, Expr, Machine, Range, Var, show
-from mlca_verify.spec.names import c_form
 from mlca_verify.spec.types import show_unit
 
 RSS_PARAMS = ("RHO", "ACCEL_MAX", "BRAKE_MIN", "BRAKE_MAX")

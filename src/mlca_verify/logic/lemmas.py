@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import z3
 
+from mlca_verify.escape import c_form
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, python_value, sort_of, value_of
 from mlca_verify.model import Expr, Lemma, Machine, Var, Verdict, nodes
-from mlca_verify.spec.names import c_form
 
 Decision = tuple[Verdict, str, Counterexample | None]
 

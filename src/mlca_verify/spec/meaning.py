@@ -7,6 +7,7 @@ from fractions import Fraction
 from typing import Any, cast
 
 from mlca_verify.errors import Loc, SpecError
+from mlca_verify.escape import c_form
 from mlca_verify.intervals import Interval, enclose
 from mlca_verify.model import (
     ANY_STATE,
@@ -42,7 +43,6 @@ from mlca_verify.spec.names import (
     MAX_STATES,
     NAME_LIMIT,
     PROPERTY_ID,
-    c_form,
     clash,
 )
 from mlca_verify.spec.types import Symbol, TypeChecker, TypeProblem

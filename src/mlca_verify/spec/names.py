@@ -16,11 +16,6 @@ IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 PROPERTY_ID = re.compile(r"[A-Za-z][A-Za-z0-9_\-.]*")
 
 
-def c_form(name: str) -> str:
-    """A name as it appears inside generated C identifiers (property ids may hold '-' and '.')."""
-    return re.sub(r"[-.]", "_", name)
-
-
 C_KEYWORDS = frozenset(
     "auto break case char const continue default do double else enum extern float for goto if inline int "
     "long register restrict return short signed sizeof static struct switch typedef union unsigned void "

@@ -18,9 +18,9 @@ from mlca_verify.codegen import data_ir
 from mlca_verify.conform.data import random_inputs
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.files import write_atomic
+from mlca_verify.layout import Layout
 from mlca_verify.model import Machine
 from mlca_verify.spec import LoadedSpec
-from mlca_verify.targets import Layout
 from mlca_verify.testgen import target
 from mlca_verify.testgen.emit import Header, c_suite, objectives_json, python_suite
 from mlca_verify.testgen.explain import fill

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.errors import ToolError
-from mlca_verify.testgen.formats import cobertura_from_lcov
+from mlca_verify.testgen.cobertura import cobertura_from_lcov
 from mlca_verify.tools import C_FLAGS, run
 
 CLANG = "clang-19"
