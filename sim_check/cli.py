@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, TypeVar
 
 from mlca_verify import cli_base
 from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser, write_json
-from mlca_verify.errors import MlcaError, UsageError
+from mlca_verify.errors import MlcaError, UsageError, located
 from mlca_verify.escape import terminal
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.db import Plan, ResultsDB
@@ -150,9 +150,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _run(args, scenario, None)
     with ResultsDB.open_for_writing(args.db) as results:  # a database that cannot take the run is refused first
         if (args.controller, scenario.traffic.avs, args.seed) in results.stored_keys():
-            raise UsageError(
-                f"{args.db}: error: already holds this run ({args.controller}, "
-                f"{scenario.traffic.avs} AVs, seed {args.seed}); give another --db"
+            raise UsageError.at(
+                args.db,
+                f"already holds this run ({args.controller}, "
+                f"{scenario.traffic.avs} AVs, seed {args.seed}); give another --db",
             )
         return _run(args, scenario, results)
 
@@ -305,8 +306,11 @@ def _run_sweep(
     missing = len(set(wanted) - sweep.database.stored_keys()) - sum(plan.held.values())
     if missing > 0:
         print(
-            f"{args.db}: error: {missing} of the {len(wanted)} runs wanted are missing (neither stored nor held by "
-            "a running sweep); run the same command with --resume",
+            located(
+                args.db,
+                f"{missing} of the {len(wanted)} runs wanted are missing (neither stored nor held by a running "
+                "sweep); run the same command with --resume",
+            ),
             file=sys.stderr,
         )
         return 1
@@ -321,7 +325,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     from sim_check.report import write_report
 
     if not args.db.is_file():
-        raise UsageError(f"{args.db}: error: no such results database")
+        raise UsageError.at(args.db, "no such results database")
     written = write_report(args.db, args.out)  # read (or refused) before anything is written
     print(f"wrote {len(written)} files to {args.out}: {', '.join(p.name for p in written)}")
     return 0

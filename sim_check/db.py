@@ -171,11 +171,11 @@ def _file(conn: sqlite3.Connection) -> str:
 
 def _open(path: Path, mode: str) -> Database:
     if path.is_dir():
-        raise UsageError(f"{path}: error: is a folder, not a results database")
+        raise UsageError.at(path, "is a folder, not a results database")
     try:
         conn = sqlite3.connect(_uri(path, mode), uri=True, timeout=BUSY_TIMEOUT_S, factory=Database)
     except sqlite3.Error as err:
-        raise UsageError(f"{path}: error: cannot open the results database: {err}") from None
+        raise UsageError.at(path, f"cannot open the results database: {err}") from None
     conn.path = str(path)
     return conn
 
@@ -207,12 +207,10 @@ def _retrying(
             return _transaction(conn, body, begin)
         except sqlite3.Error as err:
             if not _busy(err):
-                raise UsageError(f"{_file(conn)}: error: cannot {what}: {err}") from None
+                raise UsageError.at(_file(conn), f"cannot {what}: {err}") from None
             time.sleep(min(1.0, 0.01 * 2**attempt))  # the busy timeout has waited already
     waited = time.monotonic() - start
-    raise UsageError(
-        f"{_file(conn)}: error: cannot {what}: another process kept the database locked for {waited:.0f} s"
-    )
+    raise UsageError.at(_file(conn), f"cannot {what}: another process kept the database locked for {waited:.0f} s")
 
 
 def _connect(path: Path) -> Database:
@@ -252,21 +250,17 @@ def _check(conn: sqlite3.Connection, path: Path, app: int, version: int, tables:
     """Refuse a database this version does not write: foreign, older, newer, or with other columns."""
     if app not in (0, APPLICATION_ID) or (app == 0 and "runs" not in tables):
         names = ", ".join(sorted(tables)) or "none"
-        raise UsageError(
-            f"{path}: error: not a results database of mlca-sim (its tables: {names}); give a new file to --db"
-        )
+        raise UsageError.at(path, f"not a results database of mlca-sim (its tables: {names}); give a new file to --db")
     _columns(conn, path, tables & {"runs", "av_metrics"}, COLUMNS_2, prefix=True)
     version = version if app else 1
     schemas = f"results schema {version}, this one writes {SCHEMA_VERSION}"
     if version < SCHEMA_VERSION:
-        raise UsageError(
-            f"{path}: error: written by an older mlca-sim ({schemas}); use a new database file "
-            "(mlca-sim report still reads this one)"
+        raise UsageError.at(
+            path,
+            f"written by an older mlca-sim ({schemas}); use a new database file (mlca-sim report still reads this one)",
         )
     if version > SCHEMA_VERSION:
-        raise UsageError(
-            f"{path}: error: written by a newer mlca-sim ({schemas}); use that version or a new database file"
-        )
+        raise UsageError.at(path, f"written by a newer mlca-sim ({schemas}); use that version or a new database file")
     _columns(conn, path, set(COLUMNS))
 
 
@@ -285,9 +279,10 @@ def _columns(
         expected = list(wanted[table])
         if have[: len(expected) if prefix else None] != expected:
             missing = sorted(set(expected) - set(have))
-            raise UsageError(
-                f"{path}: error: table {table} has other columns than this version writes "
-                f"(missing: {', '.join(missing) or 'none'}); use a new database file"
+            raise UsageError.at(
+                path,
+                f"table {table} has other columns than this version writes "
+                f"(missing: {', '.join(missing) or 'none'}); use a new database file",
             )
 
 
@@ -405,7 +400,7 @@ def _refuse_overlap(conn: sqlite3.Connection, plan: Plan) -> None:
         pids = ", ".join(map(str, sorted(plan.held)))
         parts.append(f"{sum(plan.held.values())} of these runs are being run by another sweep (pid {pids})")
     if parts:
-        raise UsageError(f"{_file(conn)}: error: {'; '.join(parts)}; add --resume to continue")
+        raise UsageError.at(_file(conn), f"{'; '.join(parts)}; add --resume to continue")
 
 
 def _delete_run(conn: sqlite3.Connection, job: Job) -> None:
@@ -425,7 +420,7 @@ def _check_readable(conn: sqlite3.Connection, path: Path) -> None:
     tables = _retrying(conn, _tables, "read the results database", "BEGIN")
     app, _ = _marks(conn)
     if app not in (0, APPLICATION_ID) or "runs" not in tables:
-        raise UsageError(f"{path}: error: not a results database of mlca-sim")
+        raise UsageError.at(path, "not a results database of mlca-sim")
 
 
 # --- reads -------------------------------------------------------------------------------------------------
@@ -600,9 +595,7 @@ def _monitor_summary(conn: sqlite3.Connection, path: Path, controllers: Sequence
     have = {row[1] for row in conn.execute("PRAGMA table_info(runs)")}
     missing = [column for column in SUMMARY_COLUMNS if column not in have]
     if missing:
-        raise UsageError(
-            f"{path}: error: not a results database of mlca-sim (table runs has no column {', '.join(missing)})"
-        )
+        raise UsageError.at(path, f"not a results database of mlca-sim (table runs has no column {', '.join(missing)})")
     query = (
         "SELECT COUNT(*), COALESCE(SUM(monitor_violations), 0), COALESCE(SUM(status != 'done'), 0) FROM runs "
         f"WHERE controller IN ({', '.join('?' for _ in controllers)})"
@@ -720,7 +713,7 @@ class ResultsDB:
         CSV files become a database again."""
         unknown = set(rows.columns) - set(self.column_types(table))
         if unknown:
-            raise UsageError(f"{self.path}: error: table {table} has no column {sorted(unknown)[0]!r}")
+            raise UsageError.at(self.path, f"table {table} has no column {sorted(unknown)[0]!r}")
         marks = ", ".join("?" for _ in rows.columns)
         query = f"INSERT INTO {_table_name(table)} ({', '.join(rows.columns)}) VALUES ({marks})"
         _retrying(self._conn, lambda c: c.executemany(query, rows.rows), "write to the results database")

@@ -112,18 +112,18 @@ def load_points(path: Path, lemma: str | None, side: str) -> list[Point]:
     one of `lemma`, read through the side's signals) or a TOML file with a `[point]` table (and `[params]`). A
     `.json` file is read as JSON; a file of another name as JSON when it starts with `{`, else as TOML."""
     if lemma is not None:
-        _lemma_name("mlca-sim replay: error: --lemma", lemma)
+        _lemma_name("mlca-sim replay", "--lemma", lemma)
     if path.is_dir():
-        raise UsageError(f"{path}: error: is a directory, not a report or point file")
+        raise UsageError.at(path, "is a directory, not a report or point file")
     data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
-        raise UsageError(f"{path}: error: not UTF-8") from None
+        raise UsageError.at(path, "not UTF-8") from None
     if path.suffix.lower() == ".json" or text.lstrip().startswith("{"):
         return _from_check_json(path, text, lemma, side)
     if lemma is not None:
-        raise UsageError(f"{path}: error: --lemma needs a `mlca-verify check --json` file")
+        raise UsageError.at(path, "--lemma needs a `mlca-verify check --json` file")
     return [_from_toml(path, text)]
 
 
@@ -131,17 +131,17 @@ def _from_toml(path: Path, text: str) -> Point:
     try:
         doc = tomllib.loads(text)
     except (tomllib.TOMLDecodeError, ValueError, RecursionError) as err:
-        raise UsageError(f"{path}: error: invalid TOML: {str(err) or type(err).__name__}") from None
+        raise UsageError.at(path, f"invalid TOML: {str(err) or type(err).__name__}") from None
     unknown = sorted(set(doc) - {"point", "params"})
     if unknown or not isinstance(doc.get("point"), dict):
-        raise UsageError(f"{path}: error: a replay file holds a [point] table and an optional [params] table")
+        raise UsageError.at(path, "a replay file holds a [point] table and an optional [params] table")
     params = doc.get("params", {})
     if not isinstance(params, dict):
-        raise UsageError(f"{path}: error: [params] must be a table")
+        raise UsageError.at(path, "[params] must be a table")
     values = dict(doc["point"])
     expect = values.pop("expect", "safe")
     if expect not in ("safe", "unsafe"):
-        raise UsageError(f'{path}: error: expect must be "safe" or "unsafe", not {expect!r}')
+        raise UsageError.at(path, f'expect must be "safe" or "unsafe", not {expect!r}')
     return replace(_point(path, values, params, str(path)), expect=expect)
 
 
@@ -149,11 +149,11 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> lis
     try:
         doc = json.loads(text)
     except RecursionError:
-        raise UsageError(f"{path}: error: invalid JSON: nested too deeply") from None
+        raise UsageError.at(path, "invalid JSON: nested too deeply") from None
     except ValueError as err:
-        raise UsageError(f"{path}: error: invalid JSON: {str(err).splitlines()[0] or type(err).__name__}") from None
+        raise UsageError.at(path, f"invalid JSON: {str(err).splitlines()[0] or type(err).__name__}") from None
     if not isinstance(doc, dict) or doc.get("schema") != "mlca-verify.check/2":
-        raise UsageError(f"{path}: error: not a `mlca-verify check --json` document (schema mlca-verify.check/2)")
+        raise UsageError.at(path, "not a `mlca-verify check --json` document (schema mlca-verify.check/2)")
     pairs = [
         (spec, result)
         for spec in _list(doc.get("specs"))
@@ -161,7 +161,7 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> lis
         if isinstance(result, dict) and result.get("kind") == "lemma"
     ]
     for _, result in pairs:  # every name checked before any is compared or read further
-        _lemma_name(f"{path}: error: lemma", result.get("property"))
+        _lemma_name(path, "lemma", result.get("property"))
     points: dict[tuple[Any, ...], Point] = {}
     for spec, result in pairs:
         if _wanted(result, lemma) and (lemma is not None or _about(_first_step(result), side)):
@@ -169,25 +169,26 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> lis
             points.setdefault(_identity(point), point)
     if not points:
         what = f"lemma {lemma}" if lemma else f"a violated lemma about the {side} side"
-        raise UsageError(f"{path}: error: no counterexample of {what} in this file")
+        raise UsageError.at(path, f"no counterexample of {what} in this file")
     if len(points) > MAX_REPLAY_POINTS:
-        raise UsageError(
-            f"{path}: error: {len(points)} distinct counterexample points to replay, more than the "
-            f"{MAX_REPLAY_POINTS} one file may hold; choose one lemma with --lemma"
+        raise UsageError.at(
+            path,
+            f"{len(points)} distinct counterexample points to replay, more than the "
+            f"{MAX_REPLAY_POINTS} one file may hold; choose one lemma with --lemma",
         )
     return list(points.values())
 
 
-def _lemma_name(where: str, name: object) -> None:
-    """Refuse a lemma name no spec could give (PROPERTY_ID, at most NAME_LIMIT characters); `where` begins the
-    message."""
+def _lemma_name(where: object, what: str, name: object) -> None:
+    """Refuse a lemma name no spec could give (PROPERTY_ID, at most NAME_LIMIT characters): an error of `where`
+    about `what` (the option or key that gave it)."""
     if not isinstance(name, str):
-        raise UsageError(f"{where} name must be a string, not {type(name).__name__}")
+        raise UsageError.at(where, f"{what} name must be a string, not {type(name).__name__}")
     if len(name) > NAME_LIMIT:
-        raise UsageError(f"{where} name of {len(name):,} characters: a spec allows at most {NAME_LIMIT}")
+        raise UsageError.at(where, f"{what} name of {len(name):,} characters: a spec allows at most {NAME_LIMIT}")
     if not PROPERTY_ID.fullmatch(name):
-        raise UsageError(
-            f"{where} name {name!r} is not a property name: a letter, then letters, digits, '_', '-' or '.'"
+        raise UsageError.at(
+            where, f"{what} name {name!r} is not a property name: a letter, then letters, digits, '_', '-' or '.'"
         )
 
 
@@ -212,18 +213,20 @@ def _counterexample(path: Path, spec: dict[str, Any], result: dict[str, Any], si
     steps = _list(cx.get("steps")) if isinstance(cx, dict) else []
     signals = steps[0].get("signals") if steps and isinstance(steps[0], dict) else None
     if not isinstance(cx, dict) or not isinstance(signals, dict):
-        raise UsageError(f"{path}: error: lemma {name} has no counterexample to replay")
+        raise UsageError.at(path, f"lemma {name} has no counterexample to replay")
     if not _about(steps[0], side):
-        raise UsageError(
-            f"{path}: error: lemma {name} reads no definition of the {side} side (none named *_{side}): its "
-            f"counterexample's {side} signals are whatever the solver chose; give the lemma's side with --side"
+        raise UsageError.at(
+            path,
+            f"lemma {name} reads no definition of the {side} side (none named *_{side}): its "
+            f"counterexample's {side} signals are whatever the solver chose; give the lemma's side with --side",
         )
     names = {"v": "v", **{k: f"{k}_{side}" for k in POINT_KEYS[1:]}}
     missing = [n for n in names.values() if n not in signals]
     if missing:
-        raise UsageError(
-            f"{path}: error: lemma {name}'s counterexample has no signal {missing[0]}: "
-            f"replay reads v, gap_lead_{side}, v_lead_{side}, gap_follow_{side}, v_follow_{side}"
+        raise UsageError.at(
+            path,
+            f"lemma {name}'s counterexample has no signal {missing[0]}: "
+            f"replay reads v, gap_lead_{side}, v_lead_{side}, gap_follow_{side}, v_follow_{side}",
         )
     params = cx.get("params")
     rss = {k: v for k, v in params.items() if k in PARAM_RANGES} if isinstance(params, dict) else {}
@@ -260,9 +263,8 @@ def _wanted(result: object, lemma: str | None) -> bool:
 def _point(path: Path, values: dict[str, Any], params: dict[str, Any], source: str) -> Point:
     unknown = sorted(set(values) - set(POINT_KEYS)) + sorted(set(params) - set(PARAM_RANGES))
     if unknown:
-        raise UsageError(
-            f"{path}: error: unknown key {unknown[0]!r} (point: {', '.join(POINT_KEYS)}; params: "
-            f"{', '.join(PARAM_RANGES)})"
+        raise UsageError.at(
+            path, f"unknown key {unknown[0]!r} (point: {', '.join(POINT_KEYS)}; params: {', '.join(PARAM_RANGES)})"
         )
     got = [_number(path, k, values.get(k), GAP_RANGE if k.startswith("gap") else SPEED_RANGE) for k in POINT_KEYS]
     rss = {k: _number(path, k, params.get(k, AD_RSS_DEFAULTS[k]), PARAM_RANGES[k]) for k in PARAM_RANGES}
@@ -272,12 +274,12 @@ def _point(path: Path, values: dict[str, Any], params: dict[str, Any], source: s
 
 def _number(path: Path, key: str, value: object, bounds: tuple[float, float]) -> float:
     if value is None:
-        raise UsageError(f"{path}: error: {key} is missing")
+        raise UsageError.at(path, f"{key} is missing")
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise UsageError(f"{path}: error: {key} must be a number, not {type(value).__name__}")
+        raise UsageError.at(path, f"{key} must be a number, not {type(value).__name__}")
     if not bounds[0] <= value <= bounds[1]:  # compared as given (an int of any size), NaN fails too
         shown = value if isinstance(value, float) or abs(value) < 10**15 else "a number that large"
-        raise UsageError(f"{path}: error: {key} = {shown} is outside [{bounds[0]:g}, {bounds[1]:g}]")
+        raise UsageError.at(path, f"{key} = {shown} is outside [{bounds[0]:g}, {bounds[1]:g}]")
     return float(value)
 
 

@@ -39,6 +39,8 @@ def _modules() -> dict[str, Path]:
     found: dict[str, Path] = {}
     for top, folder in TREES.items():
         for path in folder.rglob("*.py"):
+            if "shipped" in path.relative_to(folder).parts:  # links to the generated code, not modules
+                continue
             parts = (top, *path.relative_to(folder).with_suffix("").parts)
             name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
             found[name] = path
@@ -136,3 +138,17 @@ def test_the_consumers_keep_to_their_side() -> None:
     ]
     assert wrong == []
     assert any(t.startswith("mlca_verify.") for t in graph["sim_check.runner"])  # the walk sees real imports
+
+
+def test_one_place_writes_an_errors_location() -> None:
+    """`errors.located` writes `where: error: message`; every error of a file, a spec element, a folder or a
+    database is made through it (`SomeError.at(where, message)`), so each location is made one line alike."""
+    written = [
+        f"{path.relative_to(ROOT)}:{number}"
+        for folder in (TREES["mlca_verify"], TREES["sim_check"])
+        for path in folder.rglob("*.py")
+        if path.name != "errors.py" and "shipped" not in path.parts
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if "}: error: " in line or ': error: "' in line
+    ]
+    assert written == []

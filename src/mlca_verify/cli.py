@@ -236,7 +236,7 @@ def _write_smt2(loaded: list[LoadedSpec], out: Path, parametric: bool, timeout_m
             write_atomic(out / name, text)
             say(f"wrote {terminal(str(out / name))}")
     except OSError as err:
-        raise UsageError(f"{out}: error: cannot write SMT-LIB files: {err.strerror or err}") from None
+        raise UsageError.at(out, f"cannot write SMT-LIB files: {err.strerror or err}") from None
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
@@ -247,7 +247,7 @@ def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path,
         try:
             written = emit(spec, results, generated, out)
         except OSError as err:
-            raise UsageError(f"{out}: error: cannot write tests: {err.strerror or err}") from None
+            raise UsageError.at(out, f"cannot write tests: {err.strerror or err}") from None
         for path in written:
             say(f"wrote {path}")
 
@@ -295,9 +295,9 @@ def writable_folder(folder: Path) -> None:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as err:
-        raise UsageError(f"{folder}: error: cannot create the output folder: {err.strerror or err}") from None
+        raise UsageError.at(folder, f"cannot create the output folder: {err.strerror or err}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f"{folder}: error: the output folder is not writable")
+        raise UsageError.at(folder, "the output folder is not writable")
 
 
 def cmd_gen(args: argparse.Namespace) -> int:
@@ -306,9 +306,10 @@ def cmd_gen(args: argparse.Namespace) -> int:
     for path in args.specs or _default_specs():
         new = generate(load_spec(path, compare=False), out)
         if clash := sorted(set(new) & set(files)):
-            raise UsageError(
-                f"{path}: error: its code would replace {out / clash[0]}, generated from another spec "
-                "given here: two machines of one name need separate --out folders"
+            raise UsageError.at(
+                path,
+                f"its code would replace {out / clash[0]}, generated from another spec "
+                "given here: two machines of one name need separate --out folders",
             )
         files.update(new)
     if args.check:
@@ -323,10 +324,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
     writable_folder(out)
     if taken := foreign(files, out):
         rel, other = taken[0]
-        raise UsageError(
-            f"{out / rel}: error: holds the code generated from {other}; refusing to replace it with "
+        raise UsageError.at(
+            out / rel,
+            f"holds the code generated from {other}; refusing to replace it with "
             "another spec's (delete it if the spec moved; two machines of one name need separate "
-            "--out folders)"
+            "--out folders)",
         )
     for path, changed in write(files, out):
         say(f"{'wrote' if changed else 'unchanged'} {path}")
@@ -404,7 +406,7 @@ def cmd_tests(args: argparse.Namespace) -> int:
 def cmd_diagram(args: argparse.Namespace) -> int:
     machine = load_spec(args.spec, compare=False).machine
     if machine.has_data and args.format == "scxml":
-        raise UsageError(f"{args.spec}: error: SCXML is not drawn for machines with data (use dot, mermaid or svg)")
+        raise UsageError.at(args.spec, "SCXML is not drawn for machines with data (use dot, mermaid or svg)")
     text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
     if args.out:
         write_text(args.out, text)
@@ -427,7 +429,7 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     readings = default_readings(Path(args.spec)) if args.readings is None else args.readings
     db = Path(args.db) if args.db else None
     if db is not None and not db.is_file():
-        raise UsageError(f"{db}: error: results database not found")
+        raise UsageError.at(db, "results database not found")
     writable_folder(Path(args.out))
     spec = load_spec(args.spec, confine=not args.allow_outside)
     work = "proofs, conformance (Frama-C takes a few seconds), readings"
@@ -459,7 +461,7 @@ def _replay(path: Path) -> dict[str, Any]:
     try:
         return check_replay(json.loads(data.decode("utf-8"), parse_constant=_no_constant), str(path))
     except (ValueError, RecursionError) as err:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
-        raise UsageError(f"{path}: error: {str(err).splitlines()[0] or type(err).__name__}") from None
+        raise UsageError.at(path, f"{str(err).splitlines()[0] or type(err).__name__}") from None
 
 
 COMMANDS = {

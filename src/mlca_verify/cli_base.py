@@ -31,7 +31,7 @@ class Parser(argparse.ArgumentParser):
     """argparse that raises `UsageError` (one line, exit 2) instead of printing usage and exiting."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        raise UsageError(f"{self.prog}: error: {message}")
+        raise UsageError.at(self.prog, f"{message}")
 
 
 DEPTH_LIMIT = 1_000  # steps of a search: `check --depth` and `tests --depth` alike
@@ -57,7 +57,7 @@ def write_text(path: str, text: str) -> None:
     try:
         write_atomic(Path(path), text)
     except OSError as err:
-        raise UsageError(f"{path}: error: cannot write: {err.strerror or err}") from None
+        raise UsageError.at(path, f"cannot write: {err.strerror or err}") from None
 
 
 def write_json(path: str, document: object) -> None:

@@ -3,10 +3,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Self
 
 from mlca_verify.escape import terminal
 
 MESSAGE_LIMIT = 500  # characters of a message after its location
+
+
+def located(where: object, message: str) -> str:
+    """An error line as every tool writes one, `where: error: message`: the one place that writes the prefix;
+    the location is made one line."""
+    return f"{terminal(str(where))}: error: {message}"
 
 
 @dataclass(frozen=True)
@@ -24,6 +31,12 @@ class Loc:
 class MlcaError(Exception):
     """Base of every error the toolkit raises on purpose."""
 
+    @classmethod
+    def at(cls, where: object, message: str) -> Self:
+        """The error of `where` (a file, a spec location, a database, a folder), as every tool writes one:
+        `where: error: message` (see `located`)."""
+        return cls(located(where, message))
+
 
 class SpecError(MlcaError):
     """A spec file that cannot be loaded: bad TOML, bad shape, or bad meaning."""
@@ -32,7 +45,7 @@ class SpecError(MlcaError):
         message = terminal(message)  # spec text in a message: one line, no control character
         if len(message) > MESSAGE_LIMIT:
             message = message[: MESSAGE_LIMIT - 3] + "..."
-        super().__init__(f"{terminal(str(loc))}: error: {message}")
+        super().__init__(located(loc, message))
         self.loc = loc
         self.message = message
 

@@ -64,19 +64,19 @@ def read_regular(path: Path, limit: int, what: str) -> bytes:
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
     except ValueError:
-        raise UsageError(f"{str(path)!r}: error: cannot read {what}: the name holds a NUL byte") from None
+        raise UsageError.at(repr(str(path)), f"cannot read {what}: the name holds a NUL byte") from None
     except OSError as err:
-        raise UsageError(f"{path}: error: cannot read {what}: {err.strerror or err}") from None
+        raise UsageError.at(path, f"cannot read {what}: {err.strerror or err}") from None
     mode = os.fstat(fd).st_mode
     if not stat.S_ISREG(mode):
         os.close(fd)
         kind = "a directory" if stat.S_ISDIR(mode) else "not a regular file"
-        raise UsageError(f"{path}: error: cannot read {what}: {kind}")
+        raise UsageError.at(path, f"cannot read {what}: {kind}")
     with os.fdopen(fd, "rb") as file:
         try:
             data = file.read(limit + 1)
         except OSError as err:
-            raise UsageError(f"{path}: error: cannot read {what}: {err.strerror or err}") from None
+            raise UsageError.at(path, f"cannot read {what}: {err.strerror or err}") from None
     if len(data) > limit:
-        raise UsageError(f"{path}: error: {what} larger than {limit:,} bytes")
+        raise UsageError.at(path, f"{what} larger than {limit:,} bytes")
     return data

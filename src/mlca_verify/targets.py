@@ -145,7 +145,7 @@ def import_generated(path: Path, name: str) -> ModuleType:
     """Import a generated Python file as the module `name`."""
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
-        raise ToolError(f"{path}: error: cannot import generated module")
+        raise ToolError.at(path, "cannot import generated module")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)

@@ -34,9 +34,10 @@ def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
     require_first_match(spec.machine)
     gaps, reachable = _gaps_and_reachable(spec)
     if gaps and spec.machine.semantics == "first-match":
-        raise CodegenError(
-            f"{spec.machine.loc}: error: machine '{spec.machine.name}' has gaps (otherwise = \"undefined\" and no "
-            f"transition enabled for some inputs in {', '.join(gaps)}); generated code needs a defined next state"
+        raise CodegenError.at(
+            spec.machine.loc,
+            f"machine '{spec.machine.name}' has gaps (otherwise = \"undefined\" and no "
+            f"transition enabled for some inputs in {', '.join(gaps)}); generated code needs a defined next state",
         )
     base = out_dir.resolve().parent
     rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()

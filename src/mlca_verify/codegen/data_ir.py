@@ -171,7 +171,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         if any(
             isinstance(x, Var) and names.kinds[x.name] == "output" for p in prevs_of(inv.expr) for x in nodes(p.arg)
         ):
-            raise CodegenError(f"{inv.loc}: error: prev() of an output is not generated yet")
+            raise CodegenError.at(inv.loc, "prev() of an output is not generated yet")
     prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
     c_prev = {p: f"prev{k}" for p, k in prevs.items()}
 

@@ -77,9 +77,10 @@ class MachineIR:
 def require_first_match(machine: Machine) -> None:
     """Refuse a nondeterministic machine (before any work on it): code needs one next state."""
     if machine.semantics != "first-match":
-        raise CodegenError(
-            f"{machine.loc}: error: machine '{machine.name}' is nondeterministic (semantics = \"any-enabled\"); "
-            "code is generated only for first-match machines"
+        raise CodegenError.at(
+            machine.loc,
+            f"machine '{machine.name}' is nondeterministic (semantics = \"any-enabled\"); "
+            "code is generated only for first-match machines",
         )
 
 

@@ -138,7 +138,7 @@ def _escaping(function: Callable[..., str]) -> Callable[..., Escaped]:
 
 def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
     if not template_dir.is_dir():
-        raise CodegenError(f"{template_dir}: error: template directory not found")
+        raise CodegenError.at(template_dir, "template directory not found")
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(template_dir)),
         finalize=_finalize,
@@ -194,4 +194,4 @@ def _render_in(template_dir: Path, name: str, values: Mapping[str, object]) -> s
         return environment(template_dir).get_template(name).render(**values)
     except jinja2.TemplateError as err:
         where = f"{template_dir / name}:{getattr(err, 'lineno', None) or 1}"
-        raise CodegenError(f"{where}: error: template failed: {err}") from None
+        raise CodegenError.at(where, f"template failed: {err}") from None

@@ -56,9 +56,7 @@ def _present(
     """The generated files of `spec` (refused when one is missing), and whether they are up to date (reported)."""
     layout = Layout(generated.resolve(), module)
     for path in layout.missing():
-        raise UsageError(
-            f"{path}: error: generated file not found; run `mlca-verify gen {spec.path} --out {generated}`"
-        )
+        raise UsageError.at(path, f"generated file not found; run `mlca-verify gen {spec.path} --out {generated}`")
     fresh = _up_to_date(spec, generated, template_dir)
     report(fresh)
     return layout, fresh

@@ -52,7 +52,7 @@ def read_closed_loop(db: Path, spec: LoadedSpec) -> ClosedLoopRuns:
         except ImportError as err:
             why = f"it cannot be imported here: {err}"
     if reader is None:
-        raise UsageError(
-            f"{db}: error: --db needs the simulation part of mlca-verify (sim_check, with SUMO's libsumo): {why}"
+        raise UsageError.at(
+            db, f"--db needs the simulation part of mlca-verify (sim_check, with SUMO's libsumo): {why}"
         )
     return reader(db, loop_controllers(spec))

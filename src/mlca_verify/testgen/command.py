@@ -111,12 +111,12 @@ def tests(
     say: Say = print,
 ) -> TestsReport:
     if spec.machine.semantics != "first-match":
-        raise UsageError(f"{spec.path}: error: tests are generated for first-match machines only, as code is")
+        raise UsageError.at(spec.path, "tests are generated for first-match machines only, as code is")
     module = spec.machine.name.lower()
     layout = Layout(generated, module)
     missing = layout.missing()
     if missing:
-        raise ToolError(f"{missing[0]}: error: generated code not found; run `mlca-verify gen {spec.path}` first")
+        raise ToolError.at(missing[0], f"generated code not found; run `mlca-verify gen {spec.path}` first")
     start = time.perf_counter()
     suite = generate_fresh(spec.machine, depth)
     seconds = time.perf_counter() - start
