@@ -33,10 +33,24 @@ from mlca_verify.targets import (
     import_generated,
     load_python,
 )
+from sim_check.package_data import GENERATED, SPECS
 from sim_check.signals import SENSED
 
-ROOT = Path(__file__).resolve().parent.parent
 Kind = Literal["fsm", "sumo", "mobil", "without"]
+Language = Literal["py", "c"]
+
+
+@dataclass(frozen=True)
+class Generated:
+    """The code a generated controller runs: the machine of the shipped spec `SPECS/<machine>.toml`, in one
+    language."""
+
+    machine: str
+    language: Language
+
+    @property
+    def spec(self) -> Path:
+        return SPECS / f"{self.machine}.toml"
 
 
 @dataclass(frozen=True)
@@ -54,6 +68,11 @@ class Setup:
     stands_for: str
     av_type: str = ""
     options: tuple[str, ...] = ()
+    generated: Generated | None = None  # what a `fsm` controller runs
+
+
+def _fsm(machine: str, language: Language, label: str, stands_for: str) -> Setup:
+    return Setup(f"{machine}-{language}", "fsm", label, stands_for, generated=Generated(machine, language))
 
 
 # Sec. IV-C of the paper names its comparison models; Sec. II describes them (LC2013, LC2014, LC2017, MOBIL,
@@ -62,19 +81,19 @@ SUBLANE_RESOLUTION_M = 3.2  # chosen by bench/bench_matrix.py --lateral (see the
 SETUPS = {
     s.name: s
     for s in (
-        Setup("mlca-py", "fsm", "MLCA (Python)", "MLCA, Alg. 1: the generated Python code"),
-        Setup("mlca-c", "fsm", "MLCA", "MLCA, Alg. 1: the generated C code"),
-        Setup("mlca_r-py", "fsm", "MLCA-R (Python)", "the repaired machine (docs/findings.md F1), generated Python"),
-        Setup("mlca_r-c", "fsm", "MLCA-R", "the repaired machine (docs/findings.md F1), generated C"),
-        Setup(
-            "mlca_t-py",
-            "fsm",
+        _fsm("mlca", "py", "MLCA (Python)", "MLCA, Alg. 1: the generated Python code"),
+        _fsm("mlca", "c", "MLCA", "MLCA, Alg. 1: the generated C code"),
+        _fsm("mlca_r", "py", "MLCA-R (Python)", "the repaired machine (docs/findings.md F1), generated Python"),
+        _fsm("mlca_r", "c", "MLCA-R", "the repaired machine (docs/findings.md F1), generated C"),
+        _fsm(
+            "mlca_t",
+            "py",
             "MLCA-T (Python)",
             "MLCA-T: the whole decision function of spec/mlca_t.toml (waiting timer, RSS gap rule), generated Python",
         ),
-        Setup(
-            "mlca_t-c",
-            "fsm",
+        _fsm(
+            "mlca_t",
+            "c",
             "MLCA-T",
             "MLCA-T: the whole decision function of spec/mlca_t.toml (waiting timer, RSS gap rule), generated C",
         ),
@@ -205,12 +224,13 @@ class DataController:
 
 
 @functools.cache
-def load_controller(name: str, generated: Path = ROOT / "generated") -> Controller | DataController:
+def load_controller(name: str, generated: Path = GENERATED) -> Controller | DataController:
     """The generated machine of an `fsm` controller, loaded (and for C, compiled) once per process."""
-    if setup_of(name).kind != "fsm":
+    code = setup_of(name).generated
+    if code is None:
         raise UsageError(f"error: controller '{name}' is not a generated machine")
-    machine, lang = name.rsplit("-", 1)
-    spec = load_spec(ROOT / "spec" / f"{machine}.toml", compare=False)
+    lang = code.language
+    spec = load_spec(code.spec, compare=False)
     if spec.machine.has_data:
         return _load_data(name, spec, lang, generated)
     ir = machine_ir(spec, generated)

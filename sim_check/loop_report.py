@@ -11,7 +11,7 @@ from typing import Any
 
 from mlca_verify.model import Machine, show
 from mlca_verify.spec import load_spec
-from sim_check.controllers import ROOT, SETUPS
+from sim_check.controllers import SETUPS
 from sim_check.db import LoopRows
 from sim_check.results import SHADOW, SIDES
 
@@ -25,9 +25,8 @@ def label(controller: str) -> str:
 @functools.cache
 def _machine(controller: str) -> Machine | None:
     """The spec of a generated controller of this version (None for any other name)."""
-    if controller not in SETUPS or SETUPS[controller].kind != "fsm":
-        return None
-    return load_spec(ROOT / "spec" / f"{controller.rsplit('-', 1)[0]}.toml", compare=False).machine
+    code = SETUPS[controller].generated if controller in SETUPS else None
+    return None if code is None else load_spec(code.spec, compare=False).machine
 
 
 def target_side(machine: Machine, tid: str) -> int:

@@ -15,8 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mlca_verify.spec import load_spec
+from sim_check.package_data import SPECS
 
-SPEC = Path(__file__).resolve().parent.parent / "spec" / "mlca_t.toml"
+SPEC = SPECS / "mlca_t.toml"
 
 
 @dataclass(frozen=True)

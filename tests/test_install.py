@@ -3,6 +3,7 @@ a fresh virtual environment checks, generates and conforms a spec in another fol
 
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 import sys
@@ -72,3 +73,24 @@ def test_the_installed_commands_check_generate_and_conform_elsewhere(installed: 
     )
     assert tested.returncode == 0, tested.stdout + tested.stderr  # the Cortex-M4 start-up files are package data
     assert "every line as on the host" in tested.stdout
+
+
+@pytest.mark.slow
+def test_the_installed_simulator_runs_a_generated_controller_in_an_empty_folder(
+    installed: Path, tmp_path: Path
+) -> None:
+    """The shipped specs and their generated code are package data: nothing is read from this checkout."""
+    where = _run([str(installed / "python"), "-c", "import sim_check.package_data as d; print(d.SPECS.resolve())"],
+                 tmp_path)  # fmt: skip
+    assert where.returncode == 0, where.stderr
+    assert where.stdout.startswith(str(installed.parent)) and not where.stdout.startswith(str(ROOT)), where.stdout
+    scenario = tmp_path / "short.toml"
+    shutil.copy(ROOT / "sim_check" / "scenarios" / "short.toml", scenario)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    ran = _run([str(installed / "mlca-sim"), "run", "--controller", "mlca_t-c", "--scenario", str(scenario),
+                "--json", "run.json"], empty)  # fmt: skip
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    run = json.loads((empty / "run.json").read_text())
+    assert (run["controller"], run["status"]) == ("mlca_t-c", "done") and run["sim_steps"] > 1000
+    assert sorted(p.name for p in empty.iterdir()) == ["run.json"]  # it wrote nothing else where it ran
