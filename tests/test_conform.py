@@ -192,3 +192,19 @@ def test_input_names_that_are_macros_of_pythons_headers_still_build(tmp_path: Pa
     write(generate(spec, out), out)
     result = conform(spec, out, ["compile", "exhaustive"], quiet, sequences=10)
     assert result.ok, [o.detail for o in result.outcomes]
+
+
+def test_sequences_blame_only_an_invariant_the_engine_proves(tmp_path: Path) -> None:
+    """An invariant declared to hold that the engine finds violated fails in the random runs: that is news about
+    the spec, reported with what the engine says, not "a proved invariant failed" (the code is not at fault)."""
+    text = (FIXTURES / "real_state.toml").read_text()
+    spec_path = tmp_path / "ra.toml"
+    spec_path.write_text(text + '\n[[invariant]]\nid = "n-small"\nexpr = "n <= 3"\n')
+    spec = load_spec(spec_path, compare=False)
+    assert {r.prop: r.verdict for r in check_all(spec.machine)}["n-small"] == "violated"
+    write(generate(spec, tmp_path / "gen"), tmp_path / "gen")
+    outcomes = {o.name: o for o in conform(spec, tmp_path / "gen", ["sequences"], quiet).outcomes}
+    sequences = outcomes["sequences"]
+    assert sequences.ok, sequences.detail
+    assert "n-small (not proved (violated)) fails at seed 0, step " in sequences.detail
+    assert "a proved invariant failed" not in sequences.detail and sequences.data["unproved_failing"] == ["n-small"]

@@ -201,6 +201,44 @@ def test_diff_compares_properties_by_meaning(
         assert label in out
 
 
+ADDED = """
+[[assume]]
+id = "no-cut-in"
+expr = "v_follow_left <= v + 5.0"
+doc = "the follower on the left is at most 5 m/s faster"
+cite = "a narrower environment"
+"""
+
+
+@pytest.mark.parametrize(
+    ("change", "label", "code"),
+    [
+        ((None, ADDED), "WEAKENED (REGRESSION)", 1),  # one more assumption: every guarantee rests on more
+        (('expr = "U -> N"', 'expr = "U -> N and v <= 60.0"'), "WEAKENED (REGRESSION)", 1),  # narrowed
+        (('expr = "U -> N"', 'expr = "not (U and not N)"'), "equivalent (reworded)", 0),
+        (('expr = "U -> N"', 'expr = "U -> N or v > 1000.0"'), "strengthened", 0),  # an invalid sample may read so
+    ],
+)
+def test_diff_counts_narrower_assumptions_as_a_weakening(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: tuple[str | None, str], label: str, code: int
+) -> None:
+    old, new = change
+    changed = tmp_path / "mlca_t.toml"
+    text = MLCA_T.read_text()
+    if old is None:
+        changed.write_text(text + new)
+    else:
+        assert old in text
+        changed.write_text(text.replace(old, new))
+    assert main(["diff", str(MLCA_T), str(changed)]) == code
+    out = capsys.readouterr().out
+    assert label in out
+    assert "    old: (U -> N)" in out  # each side's assumptions shown whole
+    if code == 1:
+        named = "no-cut-in" if old is None else "urgent-is-needed"
+        assert f"assumptions narrowed: {named} allow fewer environments" in out
+
+
 def test_a_divisor_that_can_be_zero_is_a_finding_not_a_crash() -> None:
     machine = load_spec(ROOT / "tests" / "fixtures" / "division.toml").machine
     results = {r.prop: r for r in check_all(machine)}

@@ -268,10 +268,18 @@ def cmd_diff(args: argparse.Namespace) -> int:
     if regressions:
         noun = "regression" if len(regressions) == 1 else "regressions"
         say(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
+    assumed = [c for c in meaning if c.kind == "assumption" and c.regression]
+    weakened = [p for p in weakened if not p.startswith("[[assume]]")]
+    lead = "" if regressions else "\n"
     if weakened:
-        lead = "" if regressions else "\n"
         say(f"{lead}{len(weakened)} weakened: {', '.join(weakened)} now guarantee less than before (a regression)")
-    if regressions or weakened:
+        lead = ""
+    for c in assumed:
+        named = c.prop.removeprefix("[[assume]]").strip() or "the assumptions"
+        say(
+            f"{lead}assumptions narrowed: {named} allow fewer environments, so every guarantee is weaker (a regression)"
+        )
+    if regressions or weakened or assumed:
         return EXIT_FINDING
     say(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
     return EXIT_OK

@@ -205,10 +205,10 @@ def meaning_text(changes: Sequence[PropertyChange]) -> str:
         "equivalent": "equivalent (reworded)",
         "unknown": "changed (z3 could not decide how)",
     }
-    rows = [[c.prop, _clip(c.old, 50), _clip(c.new, 50), labels[c.relation]] for c in changes]
-    return "\n".join(
-        ["properties reworded (compared by meaning):", table(["property", "old", "new", ""], rows, "  "), ""]
-    )
+    lines = ["properties reworded (compared by meaning), each expression whole:"]
+    for c in changes:
+        lines += [f"  {c.prop}: {labels[c.relation]}", f"    old: {c.old}", f"    new: {c.new}"]
+    return "\n".join([*lines, ""])
 
 
 def diff_text(left: str, right: str, comparison: EquivalenceResult, inputs: Sequence[str]) -> str:

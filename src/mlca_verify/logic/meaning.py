@@ -1,5 +1,6 @@
 """Compare two versions of a property by meaning, not by id: the new one implies the old (strengthened), the
-old implies the new (weakened), both (equivalent), or neither. Each expression is read over one valuation
+old implies the new (weakened), both (equivalent), or neither; and the environment assumptions together, which
+every guarantee rests on. Each expression is read over one valuation
 shared by both machines: the same inputs, state, variables, signals, params and previous values, with each
 machine's own definitions expanded."""
 
@@ -104,7 +105,30 @@ def property_changes(old: Machine, new: Machine, timeout_ms: int) -> list[Proper
         lv = after_live.get(live.id)
         if lv is not None and _text(live) != _text(lv):
             changes.append(_liveness_change(shared, (old, new), live, lv, timeout_ms))
-    return changes
+    assumed = _assumption_change(shared, (old, new), timeout_ms)
+    return changes if assumed is None else [*changes, assumed]
+
+
+def _assumptions_text(m: Machine) -> str:
+    return " and ".join(f"({show(a.expr)})" for a in m.assumptions) or "true"
+
+
+def _assumption_change(
+    shared: SharedValuation, pair: tuple[Machine, Machine], timeout_ms: int
+) -> PropertyChange | None:
+    """The environment assumptions together, compared by meaning. Every guarantee of a machine is claimed only
+    where its assumptions hold, so assumptions that allow fewer environments weaken every guarantee, whatever
+    the verdicts say; its name lists the new assumptions the old ones do not imply (those that narrow)."""
+    old, new = pair
+    if sorted(show(a.expr) for a in old.assumptions) == sorted(show(a.expr) for a in new.assumptions):
+        return None
+    fa = z3.And(z3.BoolVal(True), *[shared.formula(old, a.expr) for a in old.assumptions])
+    parts = {a.id: shared.formula(new, a.expr) for a in new.assumptions}
+    fb = z3.And(z3.BoolVal(True), *parts.values())
+    relation = _relation(implies(fa, fb, timeout_ms), implies(fb, fa, timeout_ms))
+    narrowing = [name for name, part in parts.items() if implies(fa, part, timeout_ms) is not True]
+    name = "[[assume]]" + (f" {', '.join(narrowing)}" if narrowing else "")
+    return PropertyChange(name, "assumption", _assumptions_text(old), _assumptions_text(new), relation)
 
 
 def _invariant_change(
