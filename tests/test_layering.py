@@ -16,7 +16,7 @@ from tests.conftest import ROOT
 LAYERS: tuple[frozenset[str], ...] = tuple(
     frozenset(names.split())
     for names in (
-        "escape version",
+        "escape version words",
         "errors",
         "files tools model layout",
         "intervals cli_base",

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from mlca_verify.codegen import data_ir, generate, write
+from mlca_verify.codegen.data_ir import closing
 from mlca_verify.codegen.rounded import parts_of, rounded_parts
 from mlca_verify.conform import conform
 from mlca_verify.conform.data import binary64_goals
@@ -114,3 +115,28 @@ def test_boolean_definitions_are_terms_where_acsl_needs_one(tmp_path: Path) -> N
     wp = next(o for o in outcomes if o.name == "frama-c-wp").data
     assert wp["proved"] == wp["goals"] > 30 and wp["binary64"] == []
     assert "on-only-when-hot-or-just-released" in wp["certified"]["stated"]
+
+
+@pytest.mark.slow
+def test_a_transition_that_completes_its_mode_is_the_chains_else(tmp_path: Path) -> None:
+    """`off` from every mode when `not main_on`, then a transition on `main_on`: the code writes the second as the
+    `else` of the chain (cppcheck's multiCondition and an unreachable `otherwise` branch are gone), and it is
+    still the spec's step (WP, the exhaustive and the sequence checks)."""
+    spec = load_spec(FIXTURES / "complement.toml", compare=False)
+    files = generate(spec, tmp_path)
+    write(files, tmp_path)
+    source, python = files["c/cm_fsm.c"], files["python/cm_fsm.py"]
+    assert "else if ((i->main_on))" not in source and "elif i.main_on" not in python
+    assert source.count("enabled whenever the ones before it are not") == 2
+    checks = ["exhaustive", "sequences", "cppcheck", "frama-c-wp"]
+    outcomes = conform(spec, tmp_path, checks, lambda _: None).outcomes
+    assert [o.name for o in outcomes if not o.ok] == [], [o.detail for o in outcomes if not o.ok]
+
+
+def test_the_closing_guard_is_read_from_the_text() -> None:
+    guards = [parse_expr(t)[0] for t in ("not on", "a and b", "on", "b")]
+    assert closing(guards) == 2
+    assert closing([parse_expr("a")[0], parse_expr("not a")[0]]) == 1  # either way round
+    assert closing([parse_expr("true")[0]]) == 0
+    assert closing([parse_expr("a")[0], parse_expr("not b")[0]]) is None
+    assert closing([parse_expr("a or not a")[0]]) is None  # complete, but only a solver would say so

@@ -89,7 +89,7 @@ def junit_xml(checked: Sequence[Checked]) -> str:
             )
             case.set("file", path)
             case.set("line", str(loc.line))
-            body = f"cite: {r.cite}\n{_message(r)}"
+            body = f"cite: {r.cite}\n{_message(r)}" if r.cite else _message(r)
             if r.counterexample is not None and r.counterexample.steps:
                 body += "\n" + trace_text(r.counterexample, machine.input_names)
             if not r.ok:

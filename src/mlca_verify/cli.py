@@ -272,7 +272,8 @@ def cmd_diff(args: argparse.Namespace) -> int:
     weakened = [p for p in weakened if not p.startswith("[[assume]]")]
     lead = "" if regressions else "\n"
     if weakened:
-        say(f"{lead}{len(weakened)} weakened: {', '.join(weakened)} now guarantee less than before (a regression)")
+        verb = "guarantees" if len(weakened) == 1 else "guarantee"
+        say(f"{lead}{len(weakened)} weakened: {', '.join(weakened)} now {verb} less than before (a regression)")
         lead = ""
     for c in assumed:
         named = c.prop.removeprefix("[[assume]]").strip() or "the assumptions"

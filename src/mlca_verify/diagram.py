@@ -41,7 +41,8 @@ def caption(m: Machine) -> str:
         else "no priority (any enabled edge may fire)"
     )
     rest = "no enabled edge: the state is kept" if m.otherwise == "stay" else "no enabled edge: undefined (a gap)"
-    return f"{m.name} ({m.cite}): {order}; {rest}"
+    cited = f" ({m.cite})" if m.cite else ""
+    return f"{m.name}{cited}: {order}; {rest}"
 
 
 def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> str:
@@ -117,7 +118,8 @@ def to_scxml(m: Machine) -> str:
     for state in m.states:
         out.append(f"  <state id={quoteattr(state)}>")
         for t in m.outgoing(state):
-            out.append(f"    <!-- {xml_comment(f'{t.id}: {show(t.guard)} ({t.cite})')} -->")
+            cited = f" ({t.cite})" if t.cite else ""
+            out.append(f"    <!-- {xml_comment(f'{t.id}: {show(t.guard)}{cited}')} -->")
             out.append(
                 f'    <transition event="step" cond={quoteattr(js_expr(t.guard))} target={quoteattr(t.target)}/>'
             )

@@ -37,7 +37,8 @@ def _fired_text(o: Outcome) -> str:
     who = f"{o.machine}: " if o.machine else ""
     if o.transition is None:
         return f"{who}(no transition)"
-    return f"{who}{o.transition} ({_clip(o.cite or '', TRACE_CITE_WIDTH)})"
+    cited = f" ({_clip(o.cite, TRACE_CITE_WIDTH)})" if o.cite else ""
+    return f"{who}{o.transition}{cited}"
 
 
 def _outcome_text(o: Outcome) -> str:

@@ -13,8 +13,8 @@ from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_li
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.errors import CodegenError
+from mlca_verify.model import Const, Expr, Machine, Not, Num, Type, Var, nodes, prevs_of, show, stateful_definitions
 from mlca_verify.model import Definition as SpecDefinition
-from mlca_verify.model import Expr, Machine, Num, Type, Var, nodes, prevs_of, show, stateful_definitions
 
 
 @dataclass(frozen=True)
@@ -76,9 +76,30 @@ class Branch:
 
 @dataclass(frozen=True)
 class Case:
+    """A mode's transitions in priority order. The code writes the first `written` of them; when `closes`, the
+    last of those is enabled whenever the ones before it are not (its guard negates an earlier one, or is
+    `true`), so it is the chain's `else` and nothing after it is reachable. The contracts keep every branch."""
+
     state: str
     index: int
     branches: tuple[Branch, ...]
+    written: int = 0
+    closes: bool = False
+
+
+def closing(guards: Sequence[Expr]) -> int | None:
+    """The first guard that holds whenever the guards before it do not: `true`, or the negation of an earlier
+    one (either way round). Read from the text alone, so it is never wrong; a guard that only z3 could show
+    complete is written as the others are."""
+    for k, g in enumerate(guards):
+        if g == Const(True) or any(g == Not(e) or e == Not(g) for e in guards[:k]):
+            return k
+    return None
+
+
+def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr]) -> Case:
+    last = closing(guards)
+    return Case(state, index, branches, len(branches) if last is None else last + 1, last is not None)
 
 
 @dataclass(frozen=True)
@@ -203,7 +224,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     shapes, uses = shared_shapes(m)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
     cases = tuple(
-        Case(
+        _case(
             s,
             k,
             tuple(
@@ -211,6 +232,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
                 for t in m.transitions
                 if t.applies_to(s)
             ),
+            [t.guard for t in m.transitions if t.applies_to(s)],
         )
         for k, s in enumerate(m.states)
     )

@@ -163,6 +163,10 @@ def environment(template_dir: Path = TEMPLATE_DIR) -> jinja2.Environment:
         "pystr": escape.py_string,
         "pyrepr": repr,  # a Python literal of validated names and bools
         "cstrlit": lambda text: f'"{escape.c_string(text)}"',
+        # a cite in parentheses after the text it cites, or nothing when the spec gives none
+        "ccite": lambda text: f" ({escape.c_comment(text)})" if text else "",
+        "pycite": lambda text: f" ({escape.py_comment(text)})" if text else "",
+        "pydoccite": lambda text: f" ({escape.py_docstring(text)})" if text else "",
     }
     env.filters.update({name: _escaping(function) for name, function in {**code, **text}.items()})
     return env

@@ -16,6 +16,7 @@ from mlca_verify.logic.results import Counterexample, Kind, Outcome, Result, Ste
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS, Solver, encode
 from mlca_verify.logic.tables import Tables, firing, later_elsewhere, tables_for
 from mlca_verify.model import Invariant, Liveness, Machine, Verdict
+from mlca_verify.words import count
 
 
 @dataclass(frozen=True)
@@ -133,14 +134,16 @@ class Checker:
 
     def reachable(self, state: str) -> Finding:
         if state in self.reach.dist:
-            return Finding("holds", detail=f"reached in {self.reach.dist[state]} steps")
+            return Finding("holds", detail=f"reached in {count(self.reach.dist[state], 'step')}")
         verdict: Verdict = "unknown" if self.reach.uncertain else "violated"
         return Finding(verdict, detail=f"no run from {self.machine.initial} reaches {state}")
 
     def fires(self, tid: str) -> Finding:
         used = self.first_use.get(tid)
         if used is not None:
-            return Finding("holds", detail=f"fires from {used.source}, {self.reach.dist[used.source]} steps in")
+            return Finding(
+                "holds", detail=f"fires from {used.source}, {count(self.reach.dist[used.source], 'step')} in"
+            )
         if self.reach.uncertain:
             return Finding("unknown")
         return Finding("violated", detail=self.why_dead(tid))

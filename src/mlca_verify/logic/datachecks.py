@@ -48,6 +48,7 @@ from mlca_verify.model import (
     nodes,
     prevs_of,
 )
+from mlca_verify.words import count
 
 
 def _reads_validity(*exprs: Expr) -> bool:
@@ -321,12 +322,12 @@ class DataChecker:
 
     def reach(self, state: str) -> Decision:
         never = f"no run from {self.m.initial} reaches {state}"
-        return self.witnessed(f"reach:{state}", _reaches(state), "reached in {} steps", never)
+        return self.witnessed(f"reach:{state}", _reaches(state), lambda n: f"reached in {count(n, 'step')}", never)
 
     def fires(self, tid: str) -> Decision:
-        return self.witnessed(f"fires:{tid}", _fires(tid), "fires at step {}", "never fires")
+        return self.witnessed(f"fires:{tid}", _fires(tid), lambda n: f"fires at step {n}", "never fires")
 
-    def witnessed(self, prop: str, bad: Bad, seen: str, never: str) -> Decision:
+    def witnessed(self, prop: str, bad: Bad, seen: Callable[[int], str], never: str) -> Decision:
         """A reachability check: holds with the shortest run that meets `bad` (from the shared witness run, else
         a search of its own), violated when that search proves no run does."""
         path = self.cover().get(prop)
@@ -334,7 +335,7 @@ class DataChecker:
         if found is None:
             found = self.search((), bad, parametric=self.parametric, certify=False)
         if found.answer == "reachable" and found.path is not None:
-            return "holds", found, seen.format(len(found.path.inputs)), None
+            return "holds", found, seen(len(found.path.inputs)), None
         if found.answer == "unreachable":
             return "violated", found, f"{never} (proved by {found.engine})", None
         return "unknown", found, found.reason, None
