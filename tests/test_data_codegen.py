@@ -344,3 +344,19 @@ def test_an_emitted_lasso_test_catches_a_response_that_never_comes(tmp_path: Pat
         cc = ["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{tmp_path / name / 'c'}", "-o", str(exe), str(test_c)]
         subprocess.run(cc, check=True)
         assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == expected
+
+
+def test_prev_of_an_output_is_generated_and_agrees_with_the_spec(tmp_path: Path) -> None:
+    """`check` accepts prev() of an output, so `gen` does too: the register keeps what the output computes, and the
+    generated monitor agrees with z3's semantics on every mode, input and first-step flag."""
+    text = (ROOT / "tests" / "fixtures" / "boolean_terms.toml").read_text()
+    spec_path = tmp_path / "bt.toml"
+    spec_path.write_text(
+        text + '[[invariant]]\nid = "agree-kept"\nexpr = "prev(agree) -> agree"\nexpect = "violated"\n'
+    )
+    spec = load_spec(spec_path, compare=False)
+    assert main(["gen", str(spec_path), "--out", str(tmp_path / "gen")]) == 0
+    assert main(["gen", "--check", str(spec_path), "--out", str(tmp_path / "gen")]) == 0
+    outcomes = conform(spec, tmp_path / "gen", ["exhaustive", "sequences"], lambda _: None).outcomes
+    assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
+    assert "agree-kept (not proved (violated)) fails" in next(o for o in outcomes if o.name == "sequences").detail

@@ -8,7 +8,7 @@ variables, definitions and outputs) and the machine's state.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Literal, TypeAlias
 
@@ -122,6 +122,24 @@ def children(expr: Expr) -> tuple[Expr, ...]:
     if isinstance(expr, Ite):
         return (expr.cond, expr.then, expr.other)
     return ()
+
+
+def substitute(expr: Expr, by: Mapping[str, Expr]) -> Expr:
+    """`expr` with each name in `by` replaced by its expression; the parts that do not change are shared."""
+    if isinstance(expr, Var):
+        return by.get(expr.name, expr)
+    old = children(expr)
+    new = tuple(substitute(c, by) for c in old)
+    if all(a is b for a, b in zip(new, old, strict=True)):
+        return expr
+    if isinstance(expr, Not | Neg | Prev):
+        return replace(expr, arg=new[0])
+    if isinstance(expr, BinOp | Arith | Cmp):
+        return replace(expr, left=new[0], right=new[1])
+    if isinstance(expr, Call):
+        return replace(expr, args=new)
+    assert isinstance(expr, Ite)
+    return replace(expr, cond=new[0], then=new[1], other=new[2])
 
 
 def nodes(expr: Expr) -> Iterator[Expr]:

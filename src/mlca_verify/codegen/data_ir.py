@@ -4,7 +4,7 @@ The templates print it; they never re-derive semantics from the spec."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 
@@ -12,8 +12,20 @@ from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_literal
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
-from mlca_verify.errors import CodegenError
-from mlca_verify.model import Const, Expr, Machine, Not, Num, Type, Var, nodes, prevs_of, show, stateful_definitions
+from mlca_verify.model import (
+    Const,
+    Expr,
+    Machine,
+    Not,
+    Num,
+    Type,
+    Var,
+    nodes,
+    prevs_of,
+    show,
+    stateful_definitions,
+    substitute,
+)
 from mlca_verify.model import Definition as SpecDefinition
 
 
@@ -188,12 +200,8 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     stated_c = Lowering(names, "c", {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()})
     call = {p.index: f"{module}_lb64_{p.index}({'i, p' if p.free else 'c, i, p'})" for p in parts}
     stated_l = AcslLowering(names, logic.free, {n: call[k] for n, k in at.items()})
-    for inv in m.invariants:
-        if any(
-            isinstance(x, Var) and names.kinds[x.name] == "output" for p in prevs_of(inv.expr) for x in nodes(p.arg)
-        ):
-            raise CodegenError.at(inv.loc, "prev() of an output is not generated yet")
     prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
+    computed = {o.name: o.expr for o in m.outputs}  # a register of an output keeps what the output computes
     c_prev = {p: f"prev{k}" for p, k in prevs.items()}
 
     def code(e: Expr, with_prev: bool = False) -> Code:
@@ -273,10 +281,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         ),
         cases=cases,
         updates=updates,
-        registers=tuple(
-            Register(k, c_type(c.type_of(p.arg)), PY_TYPES[c.type_of(p.arg)], stated(p.arg, c.type_of(p.arg)))
-            for p, k in prevs.items()
-        ),
+        registers=tuple(_register(k, substitute(p.arg, computed), c, stated) for p, k in prevs.items()),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
         guards=tuple(stated(t.guard, "bool") for t in m.transitions),
@@ -297,6 +302,11 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in repr(ir))
     kept = tuple(sh for sh in ir.shapes if set(sh.users) & used)
     return replace(ir, helpers=helpers, used=frozenset(used), shapes=kept)
+
+
+def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code]) -> Register:
+    kind = c.type_of(arg)
+    return Register(index, c_type(kind), PY_TYPES[kind], stated(arg, kind))
 
 
 HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
