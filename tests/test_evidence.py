@@ -175,8 +175,8 @@ def test_the_closed_loop_section_is_made_from_the_runs_given(tmp_path: Path) -> 
         {"transition": "go", "fired": 3},
         {"transition": "back", "fired": 0},
     ]
-    assert covered["coverage"] == "2 of 3 transitions fired in traffic (never: back)"
-    assert closed_loop(None, "mlca") == {"status": "undeveloped", "detail": "no results database given (--db)"}
+    assert covered["coverage"] == "2 of 3 transitions fired in the closed-loop runs (never: back)"
+    assert closed_loop(None, "mlca") == {"status": "undeveloped", "detail": "no closed-loop results given (--db)"}
 
 
 def test_mlca_verify_imports_no_sim_check_and_holds_no_sql() -> None:
@@ -284,7 +284,7 @@ def test_data_machine_bundle_packages_its_generated_code(data_bundles: tuple[Pat
     nodes = {n["id"]: n for n in doc["argument"]}
     assert nodes["G4"]["ok"] is True and nodes["G5"]["ok"] is True and nodes["G6"]["ok"] is True
     assert [n["text"].split(":")[0] for n in doc["argument"] if n["parent"] == "S5"] == list(DATA_CHECKS)
-    assert nodes["G7"]["type"] == "undeveloped" and "no results database given" in nodes["G7"]["text"]
+    assert nodes["G7"]["type"] == "undeveloped" and "no closed-loop results given" in nodes["G7"]["text"]
 
 
 def test_data_machine_bundle_has_the_physical_safety_section(data_bundles: tuple[Path, Path]) -> None:

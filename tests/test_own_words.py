@@ -4,6 +4,7 @@ parentheses in the code, the diagram or the JUnit report), and counts take their
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,7 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate
 from mlca_verify.spec import load_spec
 from mlca_verify.words import count
+from tests.conftest import ROOT
 
 HEAD = """
 [machine]
@@ -80,3 +82,54 @@ def test_an_uncited_machine_shows_no_empty_cite(tmp_path: Path, capsys: pytest.C
     assert "cite: \n" not in junit.read_text() and "cite:" not in junit.read_text()
     assert main(["diagram", str(spec), "--format", "dot", "--out", str(tmp_path / "d.dot")]) == 0
     assert "Lamp ()" not in (tmp_path / "d.dot").read_text()
+
+
+WORLD = re.compile(r"\b(traffic|SUMO|lane|lanes|lane-change|ad-rss-lib|RSS|vehicles?|AVs?|MLCA[\w-]*)\b", re.I)
+
+
+@pytest.mark.slow
+def test_the_evidence_of_a_machine_that_is_not_about_lanes_speaks_of_it_alone(tmp_path: Path) -> None:
+    """A cruise-control mode manager's bundle has no section or sentence about traffic, SUMO, lanes or RSS."""
+    spec = tmp_path / "cm.toml"
+    spec.write_text((ROOT / "tests" / "fixtures" / "complement.toml").read_text())
+    assert main(["gen", str(spec), "--out", str(tmp_path / "gen")]) == 0
+    args = ["evidence", str(spec), "--generated", str(tmp_path / "gen"), "--out", str(tmp_path / "out"), "--no-tests"]
+    assert main(args) in (0, 1)
+    for name in ("index.html", "evidence.json"):
+        text = (tmp_path / "out" / name).read_text().replace("mlca-verify", "")
+        assert WORLD.findall(text) == [], name
+    assert "Closed-loop runs of the generated code" in (tmp_path / "out" / "index.html").read_text()
+
+
+PUMP = """
+[machine]
+name = "Pump"
+initial = "IDLE"
+states = ["IDLE", "TRIPPED"]
+[inputs]
+high = { doc = "the temperature sample is high" }
+[variables]
+n = { type = "int", initial = 0, range = [0, 100], every = "if high then min(n + 1, 100) else 0", doc = "in a row" }
+[[transition]]
+from = "IDLE"
+to = "TRIPPED"
+when = "n >= 30"
+[[invariant]]
+id = "never-trips"
+expr = "state == IDLE"
+expect = "violated"
+"""
+
+
+def test_a_long_counterexample_is_folded_where_nothing_but_a_count_changes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    spec, report = tmp_path / "pump.toml", tmp_path / "check.json"
+    spec.write_text(PUMP)
+    assert main(["check", str(spec), "--json", str(report)]) == 0
+    out = capsys.readouterr().out
+    assert "steps 2-29: as step 1; n counts 2 to 29" in out
+    rows = [line.split()[0] for line in out.splitlines() if line.strip()[:2].isdigit() or line.strip()[:1].isdigit()]
+    assert rows[-3:] == ["1", "30", "31"]  # the first step of the run, its last, and the step that trips
+    (never,) = [r for r in json.loads(report.read_text())["specs"][0]["results"] if r["property"] == "never-trips"]
+    assert len(never["counterexample"]["steps"]) == 31  # the JSON keeps every step

@@ -61,7 +61,10 @@ TIMEOUT_ARG = whole_number(1, TIMEOUT_LIMIT_MS)
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = Parser(prog="mlca-verify", description="Prove, compare and generate the MLCA lane-change machine.")
+    parser = Parser(
+        prog="mlca-verify",
+        description="Prove state machines written as a spec, compare them, and generate their code and evidence.",
+    )
     parser.add_argument("--version", action="version", version=f"mlca-verify {__version__}")
     parser.add_argument(cli_base.DEBUG_FLAG, action="store_true", help="print the traceback of an internal error")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)

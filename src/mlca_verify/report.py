@@ -8,7 +8,7 @@ from typing import Any
 from mlca_verify.escape import terminal
 from mlca_verify.logic.equiv import EquivalenceResult, Region
 from mlca_verify.logic.meaning import PropertyChange
-from mlca_verify.logic.results import Counterexample, Outcome, Result
+from mlca_verify.logic.results import Counterexample, Outcome, Result, Step
 from mlca_verify.regress import TransitionChange, VerdictChange
 
 CHECK_SCHEMA = "mlca-verify.check/2"
@@ -59,14 +59,84 @@ def _data_columns(cx: Counterexample) -> list[str]:
     return [*first.definitions, *first.variables, *first.outputs]
 
 
+FOLD_AT = 5  # steps alike in a row that a trace shows as their first, a line for the middle, and their last
+
+
+def _alike(a: Step, b: Step) -> bool:
+    """The same step but for its variables: state, inputs, signals, definitions, outputs and what fired."""
+    return (a.state, a.inputs, a.signals, a.definitions, a.outputs, a.outcome, a.alternatives) == (
+        b.state,
+        b.inputs,
+        b.signals,
+        b.definitions,
+        b.outputs,
+        b.outcome,
+        b.alternatives,
+    )
+
+
+def _deltas(a: Step, b: Step) -> dict[str, object]:
+    return {k: b.variables[k] - a.variables[k] for k in a.variables if not isinstance(a.variables[k], bool)}
+
+
+def folds(cx: Counterexample) -> list[tuple[int, int]]:
+    """The runs of steps (first and last index) shown folded: at least FOLD_AT steps alike, whose variables keep
+    their values or count by one constant amount a step, and no loop starting inside."""
+    found: list[tuple[int, int]] = []
+    start = 0
+    steps = cx.steps
+    for k in range(1, len(steps) + 1):
+        same = (
+            k < len(steps)
+            and _alike(steps[k], steps[start])
+            and cx.loop_start != k
+            and all(v == steps[start].variables[n] for n, v in steps[k].variables.items() if isinstance(v, bool))
+            and (k - start < 2 or _deltas(steps[k - 1], steps[k]) == _deltas(steps[start], steps[start + 1]))
+        )
+        if not same:
+            if k - start >= FOLD_AT:
+                found.append((start, k - 1))
+            start = k
+    return found
+
+
+def _fold_line(cx: Counterexample, first: int, last: int) -> str:
+    a, b = cx.steps[first + 1], cx.steps[last - 1]
+    counting = [
+        f"{n} counts {number_text(a.variables[n])} to {number_text(b.variables[n])}"
+        for n in a.variables
+        if a.variables[n] != b.variables[n]
+    ]
+    return f"steps {first + 2}-{last}: as step {first + 1}" + "".join(f"; {c}" for c in counting)
+
+
+def _shown(cx: Counterexample) -> list[int | tuple[int, int]]:
+    """Step indexes to show as rows, and in place of each fold's middle, its (first, last)."""
+    middle = {k: (a, b) for a, b in folds(cx) for k in range(a + 1, b)}
+    out: list[int | tuple[int, int]] = []
+    for k in range(len(cx.steps)):
+        if k not in middle:
+            out.append(k)
+        elif k == middle[k][0] + 1:
+            out.append(middle[k])
+    return out
+
+
 def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") -> str:
     """A counterexample as a table of steps; inputs as 1/0; the loop of a lasso marked. A machine with data adds
-    its params, a column per definition, variable (after the step) and output, and the signals below."""
+    its params, a column per definition, variable (after the step) and output, and the signals below. A run of
+    steps alike (see `folds`) shows its first and last step and one line for those between; the JSON report
+    keeps every step."""
     if cx.point:
         return point_text(cx, indent)
     rows = []
     extra = _data_columns(cx)
-    for index, step in enumerate(cx.steps):
+    width = 3 + len(inputs) + len(extra)
+    for item in _shown(cx):
+        if isinstance(item, tuple):
+            rows.append(["", "...", "", *[""] * (width - 3), _fold_line(cx, *item), ""])
+            continue
+        index, step = item, cx.steps[item]
         mark = "loop->" if cx.loop_start == index else ""
         values = list(bits(step.inputs, inputs))
         stuck = step.outcome.transition is None and not step.alternatives and step.outcome.next is None
@@ -82,7 +152,12 @@ def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") 
         text = f"{indent}params: " + ", ".join(f"{k} = {number_text(v)}" for k, v in cx.params.items()) + "\n" + text
     if cx.steps and cx.steps[0].signals:
         names = list(cx.steps[0].signals)
-        signal_rows = [[str(i + 1), *(number_text(s.signals[n]) for n in names)] for i, s in enumerate(cx.steps)]
+        signal_rows = [
+            [f"{item[0] + 2}-{item[1]}", *(["as above"] + [""] * (len(names) - 1))]
+            if isinstance(item, tuple)
+            else [str(item + 1), *(number_text(cx.steps[item].signals[n]) for n in names)]
+            for item in _shown(cx)
+        ]
         text += f"\n{indent}signals:\n" + table(["step", *names], signal_rows, indent)
     if cx.loop_start is not None:
         text += f"\n{indent}(steps {cx.loop_start + 1}..{len(cx.steps)} repeat forever)"

@@ -205,9 +205,9 @@ def artifacts(ev: Evidence) -> list[dict[str, str]]:
 
 def closed_loop(runs: ClosedLoopRuns | None, module: str, transitions: tuple[str, ...] = ()) -> dict[str, Any]:
     """The closed-loop section: monitor results of this machine's runs, the hash of the database they are from,
-    and (where the database records it) how often each of the spec's `transitions` fired in traffic."""
+    and (where the database records it) how often each of the spec's `transitions` fired in those runs."""
     if runs is None:
-        return {"status": "undeveloped", "detail": "no results database given (--db)"}
+        return {"status": "undeveloped", "detail": "no closed-loop results given (--db)"}
     ok = runs.runs and runs.monitor_violations == 0 and runs.failed_runs == 0
     detail = (
         f"{runs.runs} closed-loop runs of {module}, {runs.failed_runs} failed, {runs.monitor_violations} monitor "
@@ -226,7 +226,7 @@ def closed_loop(runs: ClosedLoopRuns | None, module: str, transitions: tuple[str
         fired = [{"transition": t, "fired": runs.transitions.get(t, 0)} for t in transitions]
         never = [t for t in transitions if not runs.transitions.get(t, 0)]
         section["transitions"] = fired
-        section["coverage"] = f"{len(fired) - len(never)} of {len(fired)} transitions fired in traffic" + (
+        section["coverage"] = f"{len(fired) - len(never)} of {len(fired)} transitions fired in the closed-loop runs" + (
             f" (never: {', '.join(never)})" if never else ""
         )
     return section
@@ -484,12 +484,12 @@ def loop_goal(node: Callable[..., None], loop: dict[str, Any], number: int, reas
         node(
             f"G{number}",
             "undeveloped",
-            f"Closed-loop runs in traffic show no runtime-monitor violation ({reason})",
+            f"Closed-loop runs of the generated code show no runtime-monitor violation ({reason})",
             "S1",
         )
         return
     ok = loop["status"] == "ok"
-    node(f"G{number}", "goal", "Closed-loop runs in traffic show no runtime-monitor violation", "S1", ok)
+    node(f"G{number}", "goal", "Closed-loop runs of the generated code show no runtime-monitor violation", "S1", ok)
     node(f"Sn{number}.1", "solution", loop["detail"], f"G{number}", ok, link="#closed-loop")
     if "coverage" in loop:
         node(f"C{number}.1", "context", loop["coverage"], f"G{number}", link="#closed-loop")
@@ -517,7 +517,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     node("S1", "strategy", "Argue over the specification, the generated code, and closed-loop behaviour", "G1")
     proofs_goal(node, ev.results, with_how=False)
     code_goals(node, ev.outcomes, CHECKS, 3)
-    loop_goal(node, ev.loop, 6, "no results database given")
+    loop_goal(node, ev.loop, 6, "no closed-loop results given")
     if ev.coverage:
         coverage.coverage_goal(node, ev.coverage, 7)
     return nodes
@@ -592,7 +592,7 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
                 "G3",
             )
     code_goals(node, ev.outcomes, DATA_CHECKS, 4)
-    loop_goal(node, ev.loop, 7, "no results database given")
+    loop_goal(node, ev.loop, 7, "no closed-loop results given")
     if ev.physics:
         physics_goal(node, ev, 8)
     if ev.coverage:
