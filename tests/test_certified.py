@@ -91,7 +91,7 @@ def test_wp_needs_the_certificate(tmp_path: Path) -> None:
                 params_in_range=ranges(MACHINE, None, "p", pointer=False),
             )
         )
-        fcts = (*WP_FLAGS, "-wp-fct", "mlca_t_step_certified")  # as conform runs it (30 s a goal, not 10)
+        fcts = (*WP_FLAGS, "-wp-fct", "mlca_t_step_certified")  # as conform runs it
         return wp_file(source, tmp_path, fcts).ok
 
     assert proved_with(DEFERRAL)

@@ -17,6 +17,7 @@ import pytest
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate
 from mlca_verify.conform import conform
+from mlca_verify.conform.checks import WP
 from mlca_verify.conform.data import WP_FLAGS
 from mlca_verify.spec import load_spec
 from mlca_verify.targets import import_generated
@@ -110,9 +111,9 @@ def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -
     mutated = source.replace(left, "@@").replace(right, left).replace("@@", right)
     (tmp_path / "mlca_t_fsm.c").write_text(mutated)
     shutil.copy2(GENERATED / "c" / "mlca_t_fsm.h", tmp_path)
-    flags = ["-wp", "-wp-prover", "z3", *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING"]
+    flags = [*WP, *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING"]  # as conform runs it (its steps)
     ran = subprocess.run(
-        ["frama-c", *flags, str(tmp_path / "mlca_t_fsm.c")],
+        [*flags, str(tmp_path / "mlca_t_fsm.c")],
         check=False,
         cwd=tmp_path,
         capture_output=True,
@@ -125,8 +126,8 @@ def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -
         if " Goal " in line and "Valid" not in line
     }
     assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in unproved, ran.stdout[-2000:]
-    # the urgent behaviours still hold; a goal that only ran out of time on a loaded machine refutes nothing
-    assert not any("urgent" in goal and "Timeout" not in line for goal, line in unproved.items()), unproved
+    # the urgent behaviours still hold: a budget of steps, not of seconds, decides each goal, so load cannot fail one
+    assert not any("urgent" in goal for goal in unproved), unproved
 
 
 @pytest.mark.slow

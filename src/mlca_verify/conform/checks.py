@@ -176,12 +176,28 @@ def frama_c(t: Target) -> CheckOutcome:
     return wp_file(t.c_file, t.build)
 
 
-WP = ("frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-timeout", "10", "-wp-par", "2")
+# A goal is decided by the prover's budget, not by the clock: z3's resource limit (rlimit, through Why3's steps)
+# gives the same answer on an idle machine and on a loaded one. The hardest goal of a shipped boolean machine
+# takes 57,000 steps; the budget is 35 times that (a machine with data has its own, `data.WP_FLAGS`). A goal
+# that cannot be proved spends its whole budget, so the budget is also what a failing proof costs. The clock is
+# only a guard against a prover that hangs (z3 does not count steps in every tactic: on a broken step of a
+# boolean machine it ran until the guard): 60 s, five times what the hardest proved goal takes here.
+WP_STEPS = 2_000_000
+WP_GUARD_S = 60
+WP = ("frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-steps", str(WP_STEPS), "-wp-timeout", str(WP_GUARD_S))
+WP_RUN_GUARD_S = 3600
+# What each status of an unproved goal means, in the check's detail.
+WP_STATUS = {
+    "Unknown": "not proved within its budget of steps",
+    "Stepout": "not proved within its budget of steps",
+    "Timeout": f"no answer within the {WP_GUARD_S} s guard against a hung prover",
+    "Failed": "the prover failed (an error, or out of memory)",
+}
 
 
 def wp_file(c_file: Path, build: Path, extra: tuple[str, ...] = ()) -> CheckOutcome:
     """Frama-C WP with RTE on one generated C file: every goal proved, or the ones that are not, listed."""
-    ran = run([*WP, *extra, str(c_file)], timeout=900, cwd=build)
+    ran = run([*WP, "-wp-par", "2", *extra, str(c_file)], timeout=WP_RUN_GUARD_S, cwd=build)
     summary = _WP_SUMMARY.search(ran.output)
     if summary is None:
         tail = "\n".join(ran.output.strip().splitlines()[-5:])
@@ -189,7 +205,7 @@ def wp_file(c_file: Path, build: Path, extra: tuple[str, ...] = ()) -> CheckOutc
             raise ToolError(f"error: Frama-C WP found no prover; run `why3 config detect` ({tail})")
         return CheckOutcome("frama-c-wp", False, f"Frama-C did not report a proof:\n{tail}")
     proved, total = int(summary.group(1)), int(summary.group(2))
-    unproved = [f"{g} ({why})" for g, why in _WP_BAD.findall(ran.output)]
+    unproved = [f"{g} ({WP_STATUS[why]})" for g, why in _WP_BAD.findall(ran.output)]
     listed = sorted({(goal, prover, status) for prover, goal, status in _WP_GOAL.findall(ran.output)})
     goal_list = [{"goal": g, "prover": p, "status": s} for g, p, s in listed]
     data = {"proved": proved, "goals": total, "unproved": unproved, "goal_list": goal_list}
@@ -197,8 +213,15 @@ def wp_file(c_file: Path, build: Path, extra: tuple[str, ...] = ()) -> CheckOutc
         return CheckOutcome(
             "frama-c-wp", False, f"{proved} / {total} goals proved; not proved: {', '.join(unproved) or '?'}", data=data
         )
-    flags = " ".join(("-wp", "-wp-prover z3", "-wp-rte", *extra))
+    flags = " ".join(("-wp", "-wp-prover z3", "-wp-rte", *_with_steps(extra)))
     return CheckOutcome("frama-c-wp", True, f"frama-c {flags}: {proved} / {total} goals proved", data=data)
+
+
+def _with_steps(extra: tuple[str, ...]) -> tuple[str, ...]:
+    """`extra` as the detail shows it: with the budget of steps WP ran with (the last one given wins)."""
+    if "-wp-steps" in extra:
+        return extra
+    return ("-wp-steps", str(WP_STEPS), *extra)
 
 
 CPPCHECK = (
