@@ -15,7 +15,7 @@ from mlca_verify.codegen.data_ir import closing
 from mlca_verify.codegen.rounded import parts_of, rounded_parts
 from mlca_verify.conform import conform
 from mlca_verify.conform.data import binary64_goals
-from mlca_verify.model import name_types, show
+from mlca_verify.model import name_types, prevs_of, show
 from mlca_verify.spec import load_spec
 from mlca_verify.spec.expr_parser import parse_expr
 from tests.conftest import ROOT
@@ -45,7 +45,8 @@ def test_a_real_value_is_one_part_unless_it_is_read_as_it_is() -> None:
 
 def test_equal_parts_are_one_function_and_know_who_reads_them() -> None:
     m = load_spec(FIXTURES / "real_unbounded.toml", compare=False).machine
-    parts, at = rounded_parts(m, name_types(m), ())
+    registers = [p.arg for p in prevs_of(*(i.expr for i in m.invariants))]  # no register of an output here
+    parts, at = rounded_parts(m, name_types(m), (), registers)
     shown = [show(p.expr) for p in parts]
     assert len(shown) == len(set(shown))
     assert [p.kind for p in parts if show(p.expr) == "x > 2.0"] == ["bool"]
@@ -140,3 +141,33 @@ def test_the_closing_guard_is_read_from_the_text() -> None:
     assert closing([parse_expr("true")[0]]) == 0
     assert closing([parse_expr("a")[0], parse_expr("not b")[0]]) is None
     assert closing([parse_expr("a or not a")[0]]) is None  # complete, but only a solver would say so
+
+
+def test_a_register_of_arithmetic_over_a_real_output_reads_the_output_through_its_part(tmp_path: Path) -> None:
+    """`prev(level + 1.0)` of a real output `level`: the register's part is built from what the code computes
+    (the output's expression, not `o->level`), so the C compiles and no part is left unused."""
+    text = (FIXTURES / "real_unbounded.toml").read_text().replace('name = "RB"', 'name = "RE"')
+    text += '[outputs.level]\nexpr = "x * 2.0"\ndoc = "twice x"\n'
+    text += '[[invariant]]\nid = "level-kept"\nexpr = "prev(level + 1.0) >= 0.0 or x == 0.0"\n'
+    spec_path = tmp_path / "re.toml"
+    spec_path.write_text(text)
+    files = generate(load_spec(spec_path, compare=False), tmp_path)
+    write(files, tmp_path)
+    assert "o->" not in files["c/re_fsm.c"].split("re_outputs(")[0]  # no part reads the outputs struct
+    ran = subprocess.run(
+        [
+            "cc",
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-c",
+            "-o",
+            str(tmp_path / "re.o"),
+            str(tmp_path / "c/re_fsm.c"),
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert ran.returncode == 0, ran.stderr

@@ -196,12 +196,14 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     names = names_of(m, module, macro)
     c, py = Lowering(names, "c"), Lowering(names, "py")
     logic = AcslLowering(names, context_free(m))
-    parts, at = rounded_parts(m, names.types, stateful_definitions(m.definitions, (v.name for v in m.variables)))
+    prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
+    computed = {o.name: o.expr for o in m.outputs}  # a register of an output keeps what the output computes
+    register_args = [substitute(p.arg, computed) for p in prevs]
+    stateful = stateful_definitions(m.definitions, (v.name for v in m.variables))
+    parts, at = rounded_parts(m, names.types, stateful, register_args)
     stated_c = Lowering(names, "c", {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()})
     call = {p.index: f"{module}_lb64_{p.index}({'i, p' if p.free else 'c, i, p'})" for p in parts}
     stated_l = AcslLowering(names, logic.free, {n: call[k] for n, k in at.items()})
-    prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
-    computed = {o.name: o.expr for o in m.outputs}  # a register of an output keeps what the output computes
     c_prev = {p: f"prev{k}" for p, k in prevs.items()}
 
     def code(e: Expr, with_prev: bool = False) -> Code:
@@ -281,7 +283,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         ),
         cases=cases,
         updates=updates,
-        registers=tuple(_register(k, substitute(p.arg, computed), c, stated) for p, k in prevs.items()),
+        registers=tuple(_register(k, arg, c, stated) for k, arg in enumerate(register_args)),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
         guards=tuple(stated(t.guard, "bool") for t in m.transitions),

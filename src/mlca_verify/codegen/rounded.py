@@ -13,10 +13,10 @@ bit with z3's semantics of the spec.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
-from mlca_verify.model import Call, Cmp, Expr, Machine, Neg, Num, StateIn, Type, Var, children, nodes, prevs_of, type_of
+from mlca_verify.model import Call, Cmp, Expr, Machine, Neg, Num, StateIn, Type, Var, children, nodes, type_of
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ def parts_of(e: Expr, target: Type, types: Mapping[str, Type]) -> Iterator[tuple
             todo.extend(reversed(children(node)))
 
 
-def _sites(m: Machine, types: Mapping[str, Type]) -> Iterator[tuple[str, Expr, Type]]:
+def _sites(m: Machine, types: Mapping[str, Type], registers: Sequence[Expr]) -> Iterator[tuple[str, Expr, Type]]:
     """Each expression the step contract states, with where it is read and the type it is read as."""
     for t in m.transitions:
         yield f"the guard of {t.id}", t.guard, "bool"
@@ -72,20 +72,21 @@ def _sites(m: Machine, types: Mapping[str, Type]) -> Iterator[tuple[str, Expr, T
             yield f"the every-step update of {v.name}", v.every, v.type
     for o in m.outputs:
         yield f"the output {o.name}", o.expr, o.type
-    for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants))):
-        yield f"the register prev{k}", p.arg, type_of(p.arg, types)
+    for k, arg in enumerate(registers):
+        yield f"the register prev{k}", arg, type_of(arg, types)
 
 
 def rounded_parts(
-    m: Machine, types: Mapping[str, Type], stateful: Iterable[str]
+    m: Machine, types: Mapping[str, Type], stateful: Iterable[str], registers: Sequence[Expr]
 ) -> tuple[tuple[Part, ...], dict[int, int]]:
     """The machine's distinct parts that compute on reals, and for every node of the spec that is one of them
-    (by the node's identity) the part's index. Parts equal as expressions are one part."""
+    (by the node's identity) the part's index. Parts equal as expressions are one part. `registers` are what each
+    `prev()` register keeps, as the code computes it (the very nodes the code is lowered from)."""
     context = set(stateful) | {v.name for v in m.variables}
     index: dict[tuple[Expr, Type], int] = {}
     users: dict[int, list[str]] = {}
     at: dict[int, int] = {}
-    for where, e, target in _sites(m, types):
+    for where, e, target in _sites(m, types, registers):
         for node, kind in parts_of(e, target, types):
             k = index.setdefault((node, kind), len(index))
             users.setdefault(k, []).append(where)
