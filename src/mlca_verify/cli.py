@@ -267,12 +267,11 @@ def cmd_diff(args: argparse.Namespace) -> int:
     else:
         _say_equivalence(old, new, args.timeout_ms)
     regressions = [c.prop for c in changes if c.regression]
-    weakened = [c.prop for c in meaning if c.regression and c.prop not in regressions]
+    weakened = [c.prop for c in meaning if c.regression and c.kind != "assumption" and c.prop not in regressions]
     if regressions:
         noun = "regression" if len(regressions) == 1 else "regressions"
         say(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
     assumed = [c for c in meaning if c.kind == "assumption" and c.regression]
-    weakened = [p for p in weakened if not p.startswith("[[assume]]")]
     lead = "" if regressions else "\n"
     if weakened:
         verb = "guarantees" if len(weakened) == 1 else "guarantee"

@@ -132,7 +132,8 @@ def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") 
     rows = []
     extra = _data_columns(cx)
     width = 3 + len(inputs) + len(extra)
-    for item in _shown(cx):
+    shown_steps = _shown(cx)  # the folds, found once for both tables
+    for item in shown_steps:
         if isinstance(item, tuple):
             rows.append(["", "...", "", *[""] * (width - 3), _fold_line(cx, *item), ""])
             continue
@@ -156,7 +157,7 @@ def trace_text(cx: Counterexample, inputs: Sequence[str], indent: str = "    ") 
             [f"{item[0] + 2}-{item[1]}", *(["as above"] + [""] * (len(names) - 1))]
             if isinstance(item, tuple)
             else [str(item + 1), *(number_text(cx.steps[item].signals[n]) for n in names)]
-            for item in _shown(cx)
+            for item in shown_steps
         ]
         text += f"\n{indent}signals:\n" + table(["step", *names], signal_rows, indent)
     if cx.loop_start is not None:
