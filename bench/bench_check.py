@@ -27,6 +27,7 @@ from mlca_verify.codegen import generate
 from mlca_verify.errors import Loc
 from mlca_verify.logic import check_all
 from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.model import BinOp, Expr, Input, Invariant, Liveness, Machine, Not, StateIn, Transition, Var
 from mlca_verify.spec import load_spec, load_text
@@ -412,6 +413,44 @@ def crossing(reps: int) -> None:
     print()
 
 
+MACHINES = ROOT / "tests" / "machines"
+
+
+def timers(reps: int) -> None:
+    """The corpus's long timers, with the explicit-state engine first (as `check` runs) and with the symbolic
+    engines alone, side by side; then the growth of check time with a timer's length."""
+    print("long timers                       explicit first (s)  unknown   symbolic alone (s)  unknown")
+    for path in sorted(MACHINES.glob("*.toml")):
+        machine = load_spec(path).machine
+        found: dict[str, list[Result]] = {}
+
+        def first_run(m: Machine = machine, into: dict[str, list[Result]] = found) -> None:
+            into["explicit"] = check_all(m)
+
+        def alone_run(m: Machine = machine, into: dict[str, list[Result]] = found) -> None:
+            into["symbolic"] = check_all(m, limits=Limits(steps=0))
+
+        first, alone = interleaved(reps, first_run, alone_run)
+        unknown = {k: sum(r.verdict == "unknown" for r in v) for k, v in found.items()}
+        print(f"  {path.stem:30} {first:18.3f}  {unknown['explicit']:7}   {alone:18.3f}  {unknown['symbolic']:7}")
+    print("\ncrossing, minimum green of N steps: whole check_all (s), explicit first")
+    text = (MACHINES / "crossing_10hz.toml").read_text()
+    for n in (10, 100, 1000, 10_000):
+        one = text.replace('MIN_GREEN = { type = "int", default = 100,', f'MIN_GREEN = {{ type = "int", default = {n},')
+        one = one.replace("within = 205", f"within = {n + 105}").replace("within = 120", f"within = {n + 20}")
+        machine = load_text(one, f"crossing(MIN_GREEN={n})")
+        results: list[list[Result]] = []
+
+        def one_run(m: Machine = machine, into: list[list[Result]] = results) -> None:
+            into.append(check_all(m))
+
+        (seconds,) = interleaved(reps, one_run)
+        unknown = sum(r.verdict == "unknown" for r in results[-1])
+        bad = [r.prop for r in results[-1] if not r.ok]
+        print(f"  N = {n:6,}  {seconds:8.3f}  unknown {unknown}  not as expected: {', '.join(bad) or 'none'}")
+    print()
+
+
 def growth(quick: bool) -> None:
     sizes = [10, 50, 100, 250, 500] if quick else [10, 50, 100, 250, 500, 1000, 2000]
     print("synthetic machines  states  inputs  transitions  z3 queries  seconds  x previous size  s per state")
@@ -449,5 +488,7 @@ if __name__ == "__main__":
     counter(args.reps)
     sys.stdout.flush()
     crossing(args.reps)
+    sys.stdout.flush()
+    timers(args.reps)
     sys.stdout.flush()
     growth(args.quick)

@@ -95,12 +95,8 @@ def test_symbolic_engine_agrees_with_the_explicit_one(spec: str) -> None:
             assert len(r.counterexample.steps) == len(explicit[prop].counterexample.steps), prop
     bounded = [live.id for live in machine.liveness if live.within is not None]
     assert bounded and any(live.within is None for live in machine.liveness)
-    for prop in bounded:
-        assert symbolic[prop].verdict == explicit[prop].verdict, prop
-    for live in machine.liveness:
-        if live.within is None:  # a lasso search: violated as the explicit engine says, or unknown, never holds
-            assert symbolic[live.id].verdict in (explicit[live.id].verdict, "unknown")
-            assert symbolic[live.id].verdict != "holds"
+    for live in machine.liveness:  # bounded, and without a bound (decided by the explicit-state engine's loops)
+        assert symbolic[live.id].verdict == explicit[live.id].verdict, live.id
 
 
 HEAD = """

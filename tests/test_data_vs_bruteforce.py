@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Mapping
+from dataclasses import replace
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -572,14 +573,17 @@ def test_explorer_replays_a_run() -> None:
 
 
 @pytest.mark.slow
-def test_engine_agrees_with_bruteforce_on_data_machines() -> None:
+@pytest.mark.parametrize("engines", ["explicit first", "symbolic alone"])
+def test_engine_agrees_with_bruteforce_on_data_machines(engines: str) -> None:
+    """The engine as `check` runs it (the explicit-state search first), and its symbolic engines alone."""
     tally: Counter[str] = Counter()
+    limits = LIMITS if engines == "explicit first" else replace(LIMITS, steps=0)
 
     @SETTINGS
     @given(specs())
     def run(text: str) -> None:
         machine = load_text(text, "random.toml")
-        compare(machine, check_all(machine, limits=LIMITS), tally)
+        compare(machine, check_all(machine, limits=limits), tally)
 
     run()
     assert tally["properties"] > 0

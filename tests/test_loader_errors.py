@@ -150,12 +150,12 @@ CASES = [
     (
         "non-positive within",
         ('goal = "state == B"', 'goal = "state == B"\nwithin = 0'),
-        "toy.toml:26:10: error: 'within' must be a number of steps from 1 to 1000, got 0",
+        "toy.toml:26:10: error: 'within' must be a number of steps from 1 to 100000, got 0",
     ),
     (
         "within past its limit",
         ('goal = "state == B"', 'goal = "state == B"\nwithin = 1000000000'),
-        "toy.toml:26:10: error: 'within' must be a number of steps from 1 to 1000, got 1000000000",
+        "toy.toml:26:10: error: 'within' must be a number of steps from 1 to 100000, got 1000000000",
     ),
     (
         "trailing newline in a state name",

@@ -10,6 +10,7 @@ from functools import partial
 import z3
 
 from mlca_verify.logic.binary64 import Rounding
+from mlca_verify.logic.finite import Finite, Paths, Tracer, replay
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.replay64 import follows
@@ -83,6 +84,10 @@ class DataChecker:
         self._rounding: dict[bool, Rounding] = {}
         self.unsafe: set[str] = set()  # the elements whose div: check does not hold
         self._step_cone: frozenset[str] | None = None
+        self._finite: Finite | None = None
+        self._paths: Paths = {}
+        self._tracer: Tracer | None = None
+        self._traces: dict[int, tuple[Path, Counterexample]] = {}
 
     # --- plumbing ------------------------------------------------------------------------------------
 
@@ -169,6 +174,22 @@ class DataChecker:
         return f"{verdict} over the reals; not shown for binary64: {fault} may go either way under rounding"
 
     def trace(self, path: Path) -> Counterexample:
+        """The counterexample of a path (made once per path)."""
+        if id(path) not in self._traces:  # the path is kept with its trace, so its id is never reused
+            self._traces[id(path)] = (path, self.traced(path))
+        return self._traces[id(path)][1]
+
+    def traced_explicitly(self, path: Path, run: list[int], loop_start: int | None) -> None:
+        """Keep the counterexample of an explicit run's path as the explicit engine builds it (when it can)."""
+        if id(path) in self._traces or self._finite is None:
+            return
+        if self._tracer is None:
+            self._tracer = Tracer(self._finite)
+        found = self._tracer.counterexample(run, loop_start)
+        if found is not None:
+            self._traces[id(path)] = (path, found)
+
+    def traced(self, path: Path) -> Counterexample:
         model, system = path.model, path.system
         names = system.m.states
         steps = []
@@ -209,9 +230,44 @@ class DataChecker:
         monitors: tuple[Monitor, ...] = (),
         total: bool = False,
         certify: bool = True,
+        target: str | None = None,
     ) -> Search:
+        """Is a `bad` step reachable? With params fixed and a `target` the explicit engine knows: its first search,
+        then k-induction, then its whole search, then the symbolic engines to the end (PDR, deeper BMC)."""
         system, real = self.systems(exprs, parametric, monitors, total)
+        finite = None if parametric else self.finite()
+        if finite is not None and target is not None:
+            for deepen in (False, True):
+                found = self.explicitly(finite, target, real, bad, deepen=deepen, bounded=bool(monitors))
+                if found is not None:
+                    return found
+                if not deepen:
+                    quick = decide(system, real, bad, self.limits, certify, quick=True)
+                    if quick.answer != "unknown":
+                        return quick
         return decide(system, real, bad, self.limits, certify)
+
+    def finite(self) -> Finite | None:
+        """The explicit-state engine of this machine (params at their defaults), or None where it cannot run."""
+        if self._finite is None:
+            self._finite = Finite(self.m, self.limits.rlimit, self.limits.steps)
+            self._finite.witnesses()
+        return self._finite if self._finite.usable and self.limits.steps > 0 else None
+
+    def explicitly(
+        self, finite: Finite, target: str, real: System, bad: Bad, *, deepen: bool, bounded: bool
+    ) -> Search | None:
+        """The explicit engine's answer for `target` as a search: a run (replayed on `real` for its trace), or a
+        proof; None when it has not decided (or the symbolic semantics did not confirm its run)."""
+        answer = finite.respond(target, deepen) if bounded else finite.ask(target, deepen)
+        if answer.run is not None:
+            path = replay(finite, target, real, answer.run, partial(_last_bad, bad), paths=self._paths)
+            if path is not None:
+                self.traced_explicitly(path, answer.run, None)
+                return Search("reachable", path, "explicit", len(answer.run), on_real=True)
+        if answer.never:
+            return Search("unreachable", engine="explicit", notes=[finite.size()], on_real=True)
+        return None
 
     # --- checks --------------------------------------------------------------------------------------
 
@@ -283,7 +339,7 @@ class DataChecker:
         def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
             return z3.Not(t.enabled_any)
 
-        found = self.search((), bad, parametric=self.parametric, total=True)
+        found = self.search((), bad, parametric=self.parametric, total=True, target="completeness")
         if found.answer == "reachable" and found.path is not None:
             cx = self.trace(found.path)
             last = cx.steps[-1]
@@ -302,7 +358,7 @@ class DataChecker:
         if found.answer == "unreachable" and found.engine == "pdr" and not found.certificate_checked:
             return "unknown", found, "PDR proved it, but a separate query did not confirm its certificate", None
         if found.answer == "unreachable":
-            how = f"k-induction, k = {found.k}" if found.engine == "k-induction" else "PDR"
+            how = _engine(found)
             cert = (
                 ""
                 if found.certificate is None
@@ -330,14 +386,20 @@ class DataChecker:
     def witnessed(self, prop: str, bad: Bad, seen: Callable[[int], str], never: str) -> Decision:
         """A reachability check: holds with the shortest run that meets `bad` (from the shared witness run, else
         a search of its own), violated when that search proves no run does."""
-        path = self.cover().get(prop)
-        found = Search("reachable", path, "bmc", len(path.inputs)) if path is not None else None
+        finite = None if self.parametric else self.finite()
+        found = None
+        if finite is not None:
+            found = self.explicitly(finite, prop, self.systems((), False)[1], bad, deepen=False, bounded=False)
         if found is None:
-            found = self.search((), bad, parametric=self.parametric, certify=False)
+            path = self.cover().get(prop)
+            found = Search("reachable", path, "bmc", len(path.inputs)) if path is not None else None
+        if found is None:
+            found = self.search((), bad, parametric=self.parametric, certify=False, target=prop)
         if found.answer == "reachable" and found.path is not None:
             return "holds", found, seen(len(found.path.inputs)), None
         if found.answer == "unreachable":
-            return "violated", found, f"{never} (proved by {found.engine})", None
+            how = _engine(found) if found.engine == "explicit" else found.engine
+            return "violated", found, f"{never} (proved by {how})", None
         return "unknown", found, found.reason, None
 
     def in_range(self, name: str) -> Decision:
@@ -349,7 +411,8 @@ class DataChecker:
             x = post.variables[name]
             return z3.Or(x < value_of(low, variable.type), x > value_of(high, variable.type))
 
-        return self.violation(self.search((), bad, parametric=self.parametric), f"{name} leaves [{low}, {high}]")
+        found = self.search((), bad, parametric=self.parametric, target=f"range:{name}")
+        return self.violation(found, f"{name} leaves [{low}, {high}]")
 
     def division(self, site: Site) -> Decision:
         """Can a divisor in `site` be zero where its value is used? Definitions are read both before the step
@@ -394,7 +457,7 @@ class DataChecker:
         def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
             return z3.Not(s.ev(inv.expr, t.post))
 
-        found = self.search((inv.expr,), bad, parametric=parametric)
+        found = self.search((inv.expr,), bad, parametric=parametric, target=inv.id)
         return self.violation(found, f"after the last step {inv.id} fails")
 
     def liveness(self, live: Liveness, parametric: bool) -> Decision:
@@ -406,8 +469,27 @@ class DataChecker:
         def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
             return post.counters["respond"] >= s.ev(bound, t.post)
 
-        found = self.search((live.assume, live.goal, bound), bad, parametric=parametric, monitors=(monitor,))
+        exprs = (live.assume, live.goal, bound)
+        found = self.search(exprs, bad, parametric=parametric, monitors=(monitor,), target=live.id)
         return self.violation(found, "the assumption holds for the whole bound and the goal is not met")
+
+    def explicit_loop(
+        self, finite: Finite, live: Liveness, real: System, restricted: Callable[[StepTerms], z3.BoolRef]
+    ) -> Decision | None:
+        """A response without a bound decided by the explicit engine: a loop it found (replayed), or none among
+        all the configurations; None when it did not decide."""
+        answer = finite.loop(live.id)
+        if answer.run is not None and answer.loop_start is not None:
+            final = _looped(restricted, answer.loop_start)
+            path = replay(finite, live.id, real, answer.run, final, loop_start=answer.loop_start, paths=self._paths)
+            if path is not None:
+                self.traced_explicitly(path, answer.run, answer.loop_start)
+                search = Search("reachable", path, "explicit", len(answer.run), on_real=True)
+                return "violated", search, "the assumption holds forever and the goal never does", self.trace(path)
+        if answer.never:
+            search = Search("unreachable", engine="explicit", notes=[finite.size()], on_real=True)
+            return "holds", search, f"proved by {_engine(search)}: no reachable loop keeps the goal away", None
+        return None
 
     def lasso(self, live: Liveness, parametric: bool) -> Decision:
         _, real = self.systems((live.assume, live.goal), parametric)
@@ -415,6 +497,11 @@ class DataChecker:
         def restricted(t: StepTerms) -> z3.BoolRef:
             return z3.And(real.ev(live.assume, t.post), z3.Not(real.ev(live.goal, t.post)))
 
+        finite = None if parametric else self.finite()
+        if finite is not None:
+            decided = self.explicit_loop(finite, live, real, restricted)
+            if decided is not None:
+                return decided
         answer, path = lasso(real, restricted, self.limits)
         search = Search(answer, path, "lasso", self.limits.lasso)
         if answer == "reachable" and path is not None:
@@ -423,6 +510,29 @@ class DataChecker:
             f"no lasso within {self.limits.lasso} steps; a response without a bound is not proved beyond that"
         )
         return "unknown", search, search.reason, None
+
+
+def _last_bad(bad: Bad, path: Path) -> z3.BoolRef:
+    return bad(path.system, path.frames[-2], path.inputs[-1], path.frames[-1], path.terms[-1])
+
+
+def _looped(restricted: Callable[[StepTerms], z3.BoolRef], start: int) -> Callable[[Path], z3.BoolRef]:
+    """That a replayed run ends in the frame its step `start` began in, through restricted steps."""
+
+    def final(path: Path) -> z3.BoolRef:
+        same = [a == b for a, b in zip(path.frames[start].terms(), path.frames[-1].terms(), strict=True)]
+        return z3.And(*same, *[restricted(t) for t in path.terms[start:]])
+
+    return final
+
+
+def _engine(found: Search) -> str:
+    """The engine that proved a search, in words."""
+    if found.engine == "k-induction":
+        return f"k-induction, k = {found.k}"
+    if found.engine == "explicit":
+        return "an " + found.notes[0] if found.notes else "an explicit-state search"
+    return "PDR"
 
 
 def _reaches(state: str) -> Bad:

@@ -27,6 +27,8 @@ class Limits:
     depth: int = 60  # the deepest BMC run searched for a counterexample
     lasso: int = 12  # the longest lasso searched for an unbounded response
     timeout_ms: int = 10_000
+    steps: int = 3_000_000  # the steps the explicit-state engine may take on one search (0: not used)
+    rlimit: int = 200_000_000  # z3's resource budget for each query of the explicit engine's input classes
 
 
 @dataclass
@@ -298,11 +300,16 @@ def lasso(real: System, restricted: Callable[[StepTerms], z3.BoolRef], limits: L
     return "unknown", None
 
 
-def decide(system: System, real: System, bad: Bad, limits: Limits, certify: bool = True) -> Search:
+def decide(
+    system: System, real: System, bad: Bad, limits: Limits, certify: bool = True, *, quick: bool = False
+) -> Search:
     """k-induction first. When a bad step is expected (`certify` false: a witness is wanted), deeper BMC, then PDR;
-    otherwise PDR (for a proof, or for the certificate of a k-induction proof), then deeper BMC."""
+    otherwise PDR (for a proof, or for the certificate of a k-induction proof), then deeper BMC. `quick` stops
+    after k-induction (what it leaves open is unknown)."""
     start = time.perf_counter()
     found, base = k_induction(system, bad, real, limits)
+    if quick and found.answer == "unknown":
+        return found
     if found.engine == "abstraction":
         return refined(real, bad, limits, certify, found)
     if found.answer == "reachable" or (found.answer == "unknown" and found.engine == "bmc"):

@@ -50,7 +50,7 @@ from mlca_verify.spec.types import Symbol, TypeChecker, TypeProblem
 BUILTIN_PROPERTIES = frozenset({"determinism", "completeness"})
 # Prefixes of the built-in checks' results (`fires:t1`, `reach:IDLE`, `equiv:OTHER`): ids that would be read as one.
 RESULT_PREFIXES = frozenset({"fires", "reach", "equiv"})
-WITHIN_LIMIT = 1000  # steps of a bounded response: its counterexample and its search grow with the bound
+WITHIN_LIMIT = 100_000  # steps of a bounded response: its counterexample and its search grow with the bound
 SEMANTICS = ("first-match", "any-enabled")
 OTHERWISE = ("stay", "undefined")
 VERDICTS = ("holds", "violated")

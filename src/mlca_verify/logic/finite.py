@@ -1,0 +1,400 @@
+"""The explicit-state engine for the checks of one machine with data whose params are fixed: what `DataChecker`
+asks of it before (and after) the symbolic engines.
+
+One search holds every built-in check and invariant as a target; each bounded response has a search of its own
+(its counter is part of the configuration). A target met gives the classes of the shortest run that meets it,
+which the caller replays on the symbolic system for its trace (and as a check that both engines agree on it); a
+search that saw every configuration proves each target it never met.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+from functools import partial
+
+import z3
+
+from mlca_verify.logic.classes import InputClass, TooManyClasses, input_classes
+from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Value, param_values
+from mlca_verify.logic.explicit import (
+    Config,
+    Counter,
+    Search,
+    Target,
+    Test,
+    compile_step,
+    count_after,
+    lasso,
+    restricted_edges,
+    sustained,
+)
+from mlca_verify.logic.induction import Path
+from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
+from mlca_verify.logic.symbolic import Frame, System, python_value
+from mlca_verify.model import Expr, Liveness, Machine, Var
+
+WITNESS_STEPS = 200_000  # steps a first search may take to find every witness before the symbolic engines try
+STEPS = 3_000_000  # steps a search may take in all
+
+
+@dataclass(frozen=True)
+class Answer:
+    """What the explicit engine says of one target: `run` (the classes of the shortest run meeting it), or
+    `never` (no run meets it: every configuration was seen), or neither (not decided, `why`)."""
+
+    run: list[int] | None = None
+    never: bool = False
+    loop_start: int | None = None
+    why: str = ""
+
+
+class Finite:
+    """Searches over the configurations of `machine` (params at their defaults) for its non-parametric checks."""
+
+    def __init__(self, machine: Machine, rlimit: int, steps: int = STEPS) -> None:
+        self.m = machine
+        self.budget = steps
+        self.rlimit = rlimit
+        self.compiler = Compiler(machine, param_values(machine))
+        self.reason = ""
+        self.classes: tuple[InputClass, ...] = ()
+        self.base: Search | None = None
+        self.counters: dict[str, Counter] = {}
+        self.unbounded: dict[str, Callable[[Env], bool]] = {}
+        self.targets: dict[str, Target] = {}
+        try:
+            self._build()
+        except (NotFinite, TooManyClasses) as exc:
+            self.reason = str(exc)
+            self.base = None
+
+    # --- building ------------------------------------------------------------------------------------
+
+    def _build(self) -> None:
+        m, c = self.m, self.compiler
+        frame = [a.expr for a in m.assumptions if c.reads_frame(a.expr)]
+        inputs_only = [a.expr for a in m.assumptions if not c.reads_frame(a.expr)]
+        step = compile_step(m, c, frame)
+        targets = self._builtins()
+        for inv in m.invariants:
+            test = None if inv.parametric else self._compiled(partial(_invariant, c, inv.expr))
+            if test is not None:
+                targets[inv.id] = Target(inv.id, test)
+        for live in m.liveness:
+            if not live.parametric:
+                self._compiled(partial(self._liveness, live))
+        registers = [c.compile(p.arg) for p in list(c.prevs)]
+        if len(registers) != len(c.prevs):
+            raise NotFinite("prev() inside prev()")
+        self.classes = input_classes(System(m), list(c.atoms), inputs_only, self.rlimit)
+        self.targets = targets
+        self.base = Search(step, self.classes, registers, (), list(targets.values()))
+
+    def _builtins(self) -> dict[str, Target]:
+        m, c = self.m, self.compiler
+        found: dict[str, Target] = {}
+        for s in m.states:
+            found[f"reach:{s}"] = Target(f"reach:{s}", _reaches(c.states[s]))
+        for k, t in enumerate(m.transitions):
+            found[f"fires:{t.id}"] = Target(f"fires:{t.id}", _fires(k))
+        for k, v in enumerate(m.variables):
+            if v.range is not None:
+                found[f"range:{v.name}"] = Target(f"range:{v.name}", _leaves(k, v.range[0], v.range[1]))
+        if m.otherwise == "undefined":
+            found["completeness"] = Target("completeness", _stuck)
+        return found
+
+    def _compiled(self, make: Callable[[], Test | None]) -> Test | None:
+        """A property's test, or None when it cannot be compiled (the symbolic engine decides it); a property
+        that fails to compile leaves no atom or register behind."""
+        atoms, prevs = dict(self.compiler.atoms), dict(self.compiler.prevs)
+        try:
+            return make()
+        except NotFinite:
+            self.compiler.atoms, self.compiler.prevs = atoms, prevs
+            return None
+
+    def _liveness(self, live: Liveness) -> None:
+        c = self.compiler
+        assume, goal, bound = c.compile(live.assume), c.compile(live.goal), live.steps_bound
+        if bound is None:
+            self.unbounded[live.id] = lambda e: bool(assume(e)) and not goal(e)
+        else:
+            self.counters[live.id] = Counter(assume, goal, c.compile(bound))
+
+    # --- answers -------------------------------------------------------------------------------------
+
+    @property
+    def usable(self) -> bool:
+        return self.base is not None
+
+    def witnesses(self) -> None:
+        """The first search: until every reachability target is met (or the witness budget is spent)."""
+        if self.base is not None and not self.base.complete:
+            self.base.run(min(WITNESS_STEPS, self.budget), until_found=True)
+
+    def ask(self, name: str, deepen: bool) -> Answer:
+        """The answer for a target of the main search (a built-in check or an invariant); with `deepen`, the
+        search goes on to its whole budget first."""
+        if self.base is None or name not in self.targets:
+            return Answer(why=self.reason or "not a target of the explicit engine")
+        search, target = self.base, self.targets[name]
+        if deepen and target.found is None and not search.complete:
+            search.run(self.budget)
+        return _answer(search, target)
+
+    def respond(self, live_id: str, deepen: bool) -> Answer:
+        """A bounded response: the shortest run that ends with `bound` steps in a row at which the assumption
+        holds and the goal does not, over every configuration (searched to the whole budget with `deepen`)."""
+        counter = self.counters.get(live_id)
+        if self.base is None or counter is None:
+            return Answer(why=self.reason or "not a target of the explicit engine")
+        if deepen:
+            self.base.run(self.budget)
+        if not self.base.complete:
+            return Answer(why=self.base.undecidable or self.incomplete(self.base))
+        steps = Fraction(counter.bound(Env(0, (), (), ())))  # over params only: the loader keeps it from 1 on
+        edges = restricted_edges(self.base, lambda e: bool(counter.assume(e)) and not counter.goal(e))
+        run = sustained(self.base, edges, max(int(steps), 1))
+        return Answer(never=True) if run is None else Answer(run=run)
+
+    def loop(self, live_id: str) -> Answer:
+        """A response without a bound: a reachable loop of steps that keep `assume and not goal`."""
+        restricted = self.unbounded.get(live_id)
+        if self.base is None or restricted is None:
+            return Answer(why=self.reason or "not a target of the explicit engine")
+        self.base.run(self.budget)
+        if self.base.undecidable:
+            return Answer(why=self.base.undecidable)
+        found = lasso(self.base, restricted_edges(self.base, restricted))
+        if found is not None:
+            return Answer(run=found[0], loop_start=found[1])
+        if self.base.complete:
+            return Answer(never=True)
+        return Answer(why=self.incomplete(self.base))
+
+    def incomplete(self, search: Search) -> str:
+        return (
+            f"the explicit-state search stopped after {search.steps():,} steps and {len(search.configs):,}"
+            f" configurations, short of all of them"
+        )
+
+    def size(self) -> str:
+        """How large the search was, for a proof's note."""
+        search = self.base
+        assert search is not None
+        return (
+            f"explicit-state search: {len(search.configs):,} configurations, {len(self.classes):,}"
+            f" input {'class' if len(self.classes) == 1 else 'classes'}, every step checked"
+        )
+
+
+Paths = dict[tuple[int, tuple[int, ...], int | None], "Path | None"]
+
+
+def replay(
+    finite: Finite,
+    name: str,
+    real: System,
+    run: Sequence[int],
+    final: Callable[[Path], z3.BoolRef],
+    *,
+    loop_start: int | None = None,
+    paths: Paths | None = None,
+) -> Path | None:
+    """The explicit run `run` (for the target `name`) as a path of the symbolic system `real`: every frame and
+    input fixed to the explicit engine's values, and z3's own evaluation of each symbolic step (and of `final`:
+    the target's bad step, or its loop) confirming that the symbolic semantics takes the same run. None when it
+    does not (the callers then ask the symbolic engines). `paths` keeps the paths built, for runs asked again
+    (a state reached and the transition that enters it often share theirs)."""
+    key = (id(real), tuple(run), loop_start)
+    if paths is None or key not in paths:
+        built = _path(finite, name, real, run, loop_start)
+        if paths is None:
+            paths = {}
+        paths[key] = built
+    path = paths[key]
+    return path if path is not None and z3.is_true(path.model.eval(final(path), model_completion=True)) else None
+
+
+def _path(finite: Finite, name: str, real: System, run: Sequence[int], loop_start: int | None) -> Path | None:
+    search, counter = finite.base, finite.counters.get(name)
+    assert search is not None
+    configs, counts = [search.configs[0]], [Fraction(0)]
+    for c in run:
+        taken = search.take(configs[-1], finite.classes[c], total=True)
+        assert taken is not None and taken[1] is not None and taken[3] is not None
+        configs.append(taken[3])
+        counts.append(Fraction(0 if counter is None else count_after(counter, taken[1], counts[-1])))
+    frames = [real.frame(f"x{n}") for n in range(len(configs))]
+    inputs = [real.inputs(f"x{n}") for n in range(len(run))]
+    links = [real.step(frames[n], inputs[n], frames[n + 1]) for n in range(len(run))]
+    pins = [
+        t == v
+        for f, config, count in zip(frames, configs, counts, strict=True)
+        for t, v in _frame_values(finite, real, f, config, count)
+    ]
+    for i, c in zip(inputs, run, strict=True):
+        cls = finite.classes[c]
+        pins += [b == z3.BoolVal(v) for b, v in zip(i.bools.values(), cls.bools, strict=True)]
+        pins += [x == v for x, v in zip(i.signals.values(), cls.signals, strict=True)]
+    solver = z3.Solver()
+    solver.add(*pins)
+    if solver.check() != z3.sat:
+        return None
+    model = solver.model()
+    steps = [(link, real.assumptions(frames[n], inputs[n])) for n, (link, _) in enumerate(links)]
+    if not all(z3.is_true(model.eval(z3.And(*pair), model_completion=True)) for pair in steps):
+        return None
+    return Path(real, model, frames, inputs, [t for _, t in links], loop_start)
+
+
+def _frame_values(
+    finite: Finite, real: System, frame: Frame, config: Config, count: Value
+) -> list[tuple[z3.ExprRef, z3.ExprRef]]:
+    """Each constant of a symbolic frame with its value in an explicit configuration (and the value of the
+    response counter, where the frame has one)."""
+    m, prevs = finite.m, finite.compiler.prevs
+    n_vars = len(m.variables)
+    pairs: list[tuple[z3.ExprRef, z3.ExprRef]] = [
+        (frame.mode, z3.IntVal(config[0])),
+        (frame.first, z3.BoolVal(config[1])),
+    ]
+    for k, v in enumerate(m.variables):
+        pairs.append((frame.variables[v.name], _numeral(config[2 + k], v.type)))
+    for k, p in enumerate(real.prevs):
+        value = config[2 + n_vars + prevs[p]]
+        if value is not None:
+            pairs.append((frame.registers[k], _numeral(value, real.prev_types[k])))
+    for c in real.monitors:
+        pairs.append((frame.counters[c.name], _numeral(count, "int")))
+    return pairs
+
+
+def _numeral(value: Value | None, kind: str) -> z3.ExprRef:
+    if kind == "bool":
+        return z3.BoolVal(bool(value))
+    q = Fraction(value)  # type: ignore[arg-type]
+    return z3.IntVal(int(q)) if kind == "int" else z3.Q(q.numerator, q.denominator)
+
+
+def _answer(search: Search, target: Target) -> Answer:
+    if target.found is not None:
+        return Answer(run=search.run_to(target))
+    if search.undecidable:
+        return Answer(why=f"the explicit-state search stopped: {search.undecidable}")
+    if search.complete:
+        return Answer(never=True)
+    return Answer(why="not decided within the explicit-state search's budget")
+
+
+def _reaches(mode: int) -> Test:
+    return lambda before, after, fired, nxt: after is not None and after.mode == mode
+
+
+def _fires(k: int) -> Test:
+    return lambda before, after, fired, nxt: fired == k
+
+
+def _leaves(k: int, low: object, high: object) -> Test:
+    return lambda before, after, fired, nxt: after is not None and not (low <= after.variables[k] <= high)  # type: ignore[operator]
+
+
+def _stuck(before: Env, after: Env | None, fired: int, nxt: Config | None) -> bool:
+    return after is None
+
+
+def _invariant(c: Compiler, expr: Expr) -> Test:
+    return _fails(c.compile(expr))
+
+
+def _fails(expr: Eval) -> Test:
+    return lambda before, after, fired, nxt: after is not None and not expr(after)
+
+
+class Tracer:
+    """Counterexamples of explicit runs built from the explicit engine's own values (the symbolic trace of a
+    long run evaluates every definition and output as z3 terms at each step, which costs far more): each
+    definition and output that reads nothing of the frame is evaluated once per class in its witness, the
+    others by the compiler at each step. None for a machine where some of them cannot be (then the symbolic
+    trace is used)."""
+
+    def __init__(self, finite: Finite) -> None:
+        self.f = finite
+        m, c = finite.m, finite.compiler
+        self.ok = True
+        atoms, prevs = dict(c.atoms), dict(c.prevs)
+        self.per_step: dict[str, Eval] = {}
+        frame_free = [
+            n for n in [*(d.name for d in m.definitions), *(o.name for o in m.outputs)] if not c.reads_frame(Var(n))
+        ]
+        try:
+            for name in [*(d.name for d in m.definitions), *(o.name for o in m.outputs)]:
+                if name not in frame_free:
+                    self.per_step[name] = c.compile(Var(name))
+        except NotFinite:
+            self.ok = False
+        if c.atoms != atoms or c.prevs != prevs:
+            self.ok = False
+        c.atoms, c.prevs = atoms, prevs
+        self.per_class = [self._witness_values(cls, frame_free) for cls in finite.classes] if self.ok else []
+
+    def _witness_values(self, cls: InputClass, names: list[str]) -> dict[str, Number]:
+        system = System(self.f.m)
+        frame, inputs = system.frame("w"), system.inputs("w")
+        at = system.valuation(frame, inputs)
+        pairs = [(b, z3.BoolVal(v)) for b, v in zip(inputs.bools.values(), cls.bools, strict=True)]
+        pairs += list(zip(inputs.signals.values(), cls.signals, strict=True))
+        values = {}
+        for name in names:
+            term = z3.simplify(z3.substitute(system.ev(Var(name), at), *pairs))
+            values[name] = python_value(term)
+        values.update({s: python_value(z3.simplify(v)) for s, v in zip(system.signals, cls.signals, strict=True)})
+        return values
+
+    def counterexample(self, run: Sequence[int], loop_start: int | None) -> Counterexample | None:
+        if not self.ok:
+            return None
+        f, m = self.f, self.f.m
+        search = f.base
+        assert search is not None
+        config, steps = search.configs[0], []
+        signal_names = [s.name for s in m.signals]
+        for c in run:
+            cls = f.classes[c]
+            taken = search.take(config, cls, total=True)
+            assert taken is not None
+            before, after, fired, nxt = taken
+            assert after is not None and nxt is not None
+            known = self.per_class[c]
+            t = m.transitions[fired] if fired >= 0 else None
+            steps.append(
+                Step(
+                    m.states[config[0]],  # type: ignore[index]
+                    dict(zip(m.input_names, cls.bools, strict=True)),
+                    Outcome(t.id if t else None, t.cite if t else None, m.states[nxt[0]]),  # type: ignore[index]
+                    signals={s: known[s] for s in signal_names},
+                    definitions={d.name: self._value(d.name, known, before) for d in m.definitions},
+                    variables={v.name: _number(x) for v, x in zip(m.variables, after.variables, strict=True)},
+                    outputs={o.name: self._value(o.name, known, after) for o in m.outputs},
+                )
+            )
+            config = nxt
+        params = {p.name: _number(v) for p, v in zip(m.params, param_values(m).values(), strict=True)}
+        return Counterexample(tuple(steps), loop_start, params)
+
+    def _value(self, name: str, known: dict[str, Number], env: Env) -> Number:
+        if name in known:
+            return known[name]
+        env.cache.clear()
+        return _number(self.per_step[name](env))
+
+
+def _number(value: Value | None) -> Number:
+    """A value as the symbolic trace shows it (`symbolic.python_value`): a bool, an int, or the nearest float."""
+    if isinstance(value, bool | int):
+        return value
+    assert isinstance(value, Fraction)
+    return int(value) if value.denominator == 1 else float(value)

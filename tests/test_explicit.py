@@ -1,0 +1,143 @@
+"""The explicit-state engine: timers of hundreds to thousands of steps decided with no unknown, its runs the same
+counterexamples the symbolic engine builds, and its verdicts the symbolic engine's where both decide."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mlca_verify.logic import check_all
+from mlca_verify.logic.datachecks import DataChecker
+from mlca_verify.logic.explicit import _components, _longest, lasso, stem, sustained
+from mlca_verify.logic.finite import Finite
+from mlca_verify.logic.induction import Limits
+from mlca_verify.spec import load_spec, load_text
+
+ROOT = Path(__file__).resolve().parent.parent
+MACHINES = sorted((ROOT / "tests" / "machines").glob("*.toml"))
+
+
+@pytest.mark.parametrize("path", MACHINES, ids=lambda p: p.stem)
+def test_long_timers_are_decided_with_no_unknown(path: Path) -> None:
+    machine = load_spec(path).machine
+    results = check_all(machine)
+    assert [r.prop for r in results if r.verdict == "unknown"] == []
+    assert [r.prop for r in results if not r.ok] == []
+    # the deepest witness is hundreds of steps deep: beyond the symbolic engine's default BMC depth of 60
+    longest = max(len(r.counterexample.steps) for r in results if r.counterexample is not None)
+    assert longest > 60
+
+
+# the 100 Hz crossing's runs are ten times as long as the 10 Hz one's, through the same code
+QUICK = [p for p in MACHINES if "100hz" not in p.name]
+
+
+@pytest.mark.parametrize("path", [*QUICK, ROOT / "spec" / "mlca_t.toml"], ids=lambda p: p.stem)
+def test_explicit_counterexamples_are_the_symbolic_traces_of_the_same_runs(path: Path) -> None:
+    checker = DataChecker(load_spec(path).machine, Limits())
+    checker.run_all()
+    built = list(checker._traces.values())
+    assert built
+    for found, explicit in built:
+        assert checker.traced(found) == explicit
+
+
+def test_shortest_counterexamples_of_a_long_debounce() -> None:
+    results = {r.prop: r for r in check_all(load_spec(ROOT / "tests" / "machines" / "pump_debounce_1khz.toml").machine)}
+    # 1,000 hot samples in a row trip the pump: the claim that it never trips fails at the 1,000th step
+    never = results["never-trips"].counterexample
+    assert never is not None and len(never.steps) == 1000
+    assert never.steps[-1].outcome.transition == "trip"
+    assert results["fires:trip"].detail == "fires at step 1000"
+    # the loop: tripped, then cool forever with no reset; it starts right after the trip
+    loop = results["cool-restarts"].counterexample
+    assert loop is not None and loop.loop_start is not None and loop.loop_start >= 1000
+    assert results["trips-when-hot"].verdict == "holds" and results["hot-ends-tripped"].verdict == "holds"
+
+
+def test_a_bound_one_step_short_is_violated_and_the_exact_one_holds() -> None:
+    text = (ROOT / "tests" / "machines" / "crossing_10hz.toml").read_text()
+    served = {}
+    for bound in (199, 200, 201):
+        machine = load_text(text.replace("within = 205", f"within = {bound}"), "crossing.toml")
+        served[bound] = next(r for r in check_all(machine) if r.prop == "served")
+    # a press at the step that leaves the walk waits with the request latched and no walk shown through 50 steps
+    # of flashing, 10 of all red, 100 of minimum green, 30 of yellow and 10 of all red: 200 steps in a row, so a
+    # bound of 200 is met (violated) and 201 is not
+    assert [served[b].verdict for b in (199, 200, 201)] == ["violated", "violated", "holds"]
+    for bound in (199, 200):
+        cx = served[bound].counterexample
+        assert cx is not None and sum(1 for s in cx.steps if s.state == "WALK") >= 1
+    assert served[201].proof is not None and served[201].proof.engine == "explicit"
+
+
+@pytest.mark.parametrize("path", [*QUICK, ROOT / "spec" / "mlca_t.toml"], ids=lambda p: p.stem)
+def test_the_symbolic_engine_agrees_where_it_decides(path: Path) -> None:
+    machine = load_spec(path).machine
+    explicit = {r.prop: r for r in check_all(machine)}
+    # the symbolic engines alone, on a small budget: what they leave unknown is not compared
+    alone = Limits(induction=2, depth=10, lasso=4, timeout_ms=1000, steps=0)
+    symbolic = {r.prop: r for r in check_all(machine, limits=alone)}
+    decided = [p for p, r in symbolic.items() if r.verdict != "unknown"]
+    assert decided
+    for prop in decided:
+        assert symbolic[prop].verdict == explicit[prop].verdict, prop
+        cx = symbolic[prop].counterexample
+        if cx is not None:
+            found = explicit[prop].counterexample
+            assert found is not None and len(found.steps) == len(cx.steps), prop
+
+
+def test_a_machine_that_compares_a_signal_with_a_variable_is_left_to_the_symbolic_engine() -> None:
+    spec = """
+[machine]
+name = "Keep"
+initial = "A"
+states = ["A", "B"]
+[signals]
+x = { type = "int", unit = "m", range = [0, 10], doc = "a reading" }
+[variables]
+level = { type = "int", initial = 0, range = [0, 10], unit = "m", every = "min(level + 1, 10)", doc = "a level" }
+[definitions]
+above = { expr = "x > level", if_invalid = false, doc = "the reading is above the level" }
+[[transition]]
+id = "go"
+from = "A"
+to = "B"
+when = "above"
+"""
+    machine = load_text(spec, "keep.toml")
+    finite = Finite(machine, Limits().rlimit)
+    assert not finite.usable and "x" in finite.reason
+    results = {r.prop: r for r in check_all(machine)}
+    assert results["fires:go"].verdict == "holds" and results["fires:go"].proof is not None
+    assert results["fires:go"].proof.engine != "explicit"
+
+
+def test_graph_searches_on_small_graphs() -> None:
+    # 0 -> 1 -> 2 -> 1 (a loop of two), 2 -> 3, 3 -> 4 (a path of two at the end)
+    edges = [[(1, 0)], [(2, 0)], [(1, 1), (3, 0)], [(4, 0)], []]
+    order = _components(edges)
+    assert sorted(map(sorted, order)) == [[0], [1, 2], [3], [4]]
+    assert order.index([4]) < order.index([3]) < order.index(next(c for c in order if 1 in c))  # closed after
+    longest = _longest(edges)
+    assert longest[4] == 0 and longest[3] == 1 and longest[1] == float("inf") and longest[0] == float("inf")
+    assert _longest([[(1, 0)], [(2, 0)], []]) == [2.0, 1.0, 0.0]
+
+
+def test_lasso_and_sustained_runs_are_the_shortest() -> None:
+    machine = load_spec(ROOT / "tests" / "machines" / "pump_debounce_1khz.toml").machine
+    finite = Finite(machine, Limits().rlimit)
+    assert finite.base is not None
+    finite.base.run(finite.budget)
+    assert finite.base.complete
+    search = finite.base
+    # every configuration's stem is as long as its depth
+    for at in (0, 1, len(search.configs) // 2, len(search.configs) - 1):
+        assert len(stem(search, at)) == search.depth[at]
+    edges = [[(to, c) for c in range(len(search.classes))] for to in range(1, 3)] + [[] for _ in range(search.done - 2)]
+    run = sustained(search, edges, 2)
+    assert run is not None and len(run) == 2
+    assert sustained(search, edges, 3) is None
+    assert lasso(search, edges) is None
