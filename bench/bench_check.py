@@ -23,6 +23,8 @@ from collections import deque
 from collections.abc import Callable
 from pathlib import Path
 
+import z3
+
 from mlca_verify.codegen import generate
 from mlca_verify.errors import Loc
 from mlca_verify.logic import check_all
@@ -451,6 +453,35 @@ def timers(reps: int) -> None:
     print()
 
 
+def resources(reps: int) -> None:
+    """How long z3 takes to spend a fixed resource budget (rlimit) on a query it cannot finish: PDR on the 10 Hz
+    crossing's `reach:WALK`, and a BMC query of 400 steps of it; the engine's RESOURCE_PER_MS should be about
+    the budget over these times."""
+    from mlca_verify.logic import solver as budgets
+    from mlca_verify.logic.datachecks import DataChecker, _reaches
+    from mlca_verify.logic.induction import Unrolling, pdr
+
+    machine = load_spec(MACHINES / "crossing_10hz.toml").machine
+    system, real = DataChecker(machine, Limits(steps=0)).systems((), False)
+    spend_ms = 2000
+
+    def pdr_run() -> None:
+        pdr(system, _reaches("WALK"), spend_ms)
+
+    def bmc_run() -> None:
+        run = Unrolling(real, True, "b", spend_ms)
+        for _ in range(400):
+            run.extend()
+        run.check(z3.Or(*[run.bad(_reaches("WALK"), k) for k in range(0, 400, 7)]))
+
+    units = spend_ms * budgets.RESOURCE_PER_MS
+    pdr_s, bmc_s = interleaved(reps, pdr_run, bmc_run)
+    print(f"z3 resources: a budget of {units:,} units ({spend_ms} ms at RESOURCE_PER_MS = {budgets.RESOURCE_PER_MS})")
+    print(f"  PDR spends it in {pdr_s:.3f} s: {units / pdr_s / 1000:,.0f} units per ms")
+    print(f"  BMC of 400 steps answers in {bmc_s:.3f} s (within the budget, or at it)")
+    print()
+
+
 def growth(quick: bool) -> None:
     sizes = [10, 50, 100, 250, 500] if quick else [10, 50, 100, 250, 500, 1000, 2000]
     print("synthetic machines  states  inputs  transitions  z3 queries  seconds  x previous size  s per state")
@@ -490,5 +521,7 @@ if __name__ == "__main__":
     crossing(args.reps)
     sys.stdout.flush()
     timers(args.reps)
+    sys.stdout.flush()
+    resources(args.reps)
     sys.stdout.flush()
     growth(args.quick)

@@ -3,6 +3,9 @@ counterexamples the symbolic engine builds, and its verdicts the symbolic engine
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -108,7 +111,7 @@ to = "B"
 when = "above"
 """
     machine = load_text(spec, "keep.toml")
-    finite = Finite(machine, Limits().rlimit)
+    finite = Finite(machine, Limits().timeout_ms)
     assert not finite.usable and "x" in finite.reason
     results = {r.prop: r for r in check_all(machine)}
     assert results["fires:go"].verdict == "holds" and results["fires:go"].proof is not None
@@ -128,7 +131,7 @@ def test_graph_searches_on_small_graphs() -> None:
 
 def test_lasso_and_sustained_runs_are_the_shortest() -> None:
     machine = load_spec(ROOT / "tests" / "machines" / "pump_debounce_1khz.toml").machine
-    finite = Finite(machine, Limits().rlimit)
+    finite = Finite(machine, Limits().timeout_ms)
     assert finite.base is not None
     finite.base.run(finite.budget)
     assert finite.base.complete
@@ -141,3 +144,38 @@ def test_lasso_and_sustained_runs_are_the_shortest() -> None:
     assert run is not None and len(run) == 2
     assert sustained(search, edges, 3) is None
     assert lasso(search, edges) is None
+
+
+def test_an_unknown_says_why_in_words_and_what_to_try() -> None:
+    machine = load_spec(ROOT / "tests" / "machines" / "pump_debounce_1khz.toml").machine
+    results = check_all(machine, limits=Limits(steps=0, depth=5, induction=1, lasso=2, timeout_ms=50))
+    unknown = [r for r in results if r.verdict == "unknown"]
+    assert unknown
+    for r in unknown:
+        assert "canceled" not in r.detail and r.detail, (r.prop, r.detail)
+    assert any("ran out of its budget (" in r.detail and "try a larger --timeout-ms" in r.detail for r in unknown)
+
+
+def test_verdicts_do_not_depend_on_the_machines_load(tmp_path: Path) -> None:
+    """z3's resource limit, not the clock, decides when a query gives up: a fresh `check` process gives the same
+    verdicts (and the same reasons) while two other processes keep every core busy. Parametric, so that the
+    symbolic engines decide, on a budget small enough to leave some properties unknown."""
+    spec = ROOT / "tests" / "machines" / "crossing_10hz.toml"
+
+    def verdicts(name: str) -> list[tuple[str, str, str]]:
+        out = tmp_path / f"{name}.json"
+        command = [sys.executable, "-m", "mlca_verify", "check", str(spec), "--parametric", "--depth", "8"]
+        subprocess.run([*command, "--timeout-ms", "300", "--json", str(out), "--quiet"], check=False, timeout=600)
+        results = json.loads(out.read_text())["specs"][0]["results"]
+        return [(r["property"], r["verdict"], r["detail"]) for r in results]
+
+    idle = verdicts("idle")
+    assert any(v == "unknown" for _, v, _ in idle) and any(v == "holds" for _, v, _ in idle)
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(2)]
+    try:
+        loaded = verdicts("loaded")
+    finally:
+        for hog in hogs:
+            hog.kill()
+            hog.wait()
+    assert loaded == idle

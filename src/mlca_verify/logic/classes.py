@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import z3
 
+from mlca_verify.logic.solver import budget
 from mlca_verify.logic.symbolic import System
 from mlca_verify.model import Expr
 
@@ -35,7 +36,7 @@ class TooManyClasses(Exception):
 
 
 def input_classes(
-    system: System, atoms: Sequence[Expr], assumptions: Sequence[Expr], rlimit: int
+    system: System, atoms: Sequence[Expr], assumptions: Sequence[Expr], timeout_ms: int
 ) -> tuple[InputClass, ...]:
     """Every class, in a fixed order (each column false before true). `system` is the machine's real system with
     its params fixed; `assumptions` read only the step's inputs. A boolean input that no atom and no assumption
@@ -48,7 +49,7 @@ def input_classes(
     linked = _linked(bools, [*atom_terms, constraint])
     columns = [b for k, b in enumerate(bools) if k in linked] + atom_terms
     solver = z3.Solver()
-    solver.set("rlimit", rlimit)
+    budget(solver, timeout_ms)
     solver.add(constraint)
     leaves = _split(solver, columns, [], [])
     free = [k for k in range(len(bools)) if k not in linked]

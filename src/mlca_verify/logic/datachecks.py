@@ -10,7 +10,7 @@ from functools import partial
 import z3
 
 from mlca_verify.logic.binary64 import Rounding
-from mlca_verify.logic.finite import Finite, Paths, Tracer, replay
+from mlca_verify.logic.finite import Finite, Paths, Tracer, prebuild, replay
 from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
 from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.replay64 import follows
@@ -56,6 +56,7 @@ def _reads_validity(*exprs: Expr) -> bool:
     return any(isinstance(n, Call) and n.fn == "valid" for e in exprs for n in nodes(e))
 
 
+WITNESSES = ("reach:", "fires:")  # the checks a run answers
 Decision = tuple[Verdict, Search | None, str, Counterexample | None]
 
 
@@ -87,6 +88,7 @@ class DataChecker:
         self._finite: Finite | None = None
         self._paths: Paths = {}
         self._tracer: Tracer | None = None
+        self._prebuilt = False
         self._traces: dict[int, tuple[Path, Counterexample]] = {}
 
     # --- plumbing ------------------------------------------------------------------------------------
@@ -250,7 +252,7 @@ class DataChecker:
     def finite(self) -> Finite | None:
         """The explicit-state engine of this machine (params at their defaults), or None where it cannot run."""
         if self._finite is None:
-            self._finite = Finite(self.m, self.limits.rlimit, self.limits.steps)
+            self._finite = Finite(self.m, self.limits.timeout_ms, self.limits.steps)
             self._finite.witnesses()
         return self._finite if self._finite.usable and self.limits.steps > 0 else None
 
@@ -389,7 +391,12 @@ class DataChecker:
         finite = None if self.parametric else self.finite()
         found = None
         if finite is not None:
-            found = self.explicitly(finite, prop, self.systems((), False)[1], bad, deepen=False, bounded=False)
+            real = self.systems((), False)[1]
+            if not self._prebuilt:
+                self._prebuilt = True
+                runs = [finite.ask(name, deepen=False).run for name in finite.targets if name.startswith(WITNESSES)]
+                prebuild(finite, real, [r for r in runs if r is not None], self._paths)
+            found = self.explicitly(finite, prop, real, bad, deepen=False, bounded=False)
         if found is None:
             path = self.cover().get(prop)
             found = Search("reachable", path, "bmc", len(path.inputs)) if path is not None else None

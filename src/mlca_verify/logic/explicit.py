@@ -78,6 +78,7 @@ class Target:
     name: str
     test: Test
     found: tuple[int, int] | None = None
+    witness: bool = False  # a run is expected (a state reached, a transition fired): the first search waits for it
 
 
 @dataclass
@@ -117,10 +118,10 @@ class Search:
 
     def run(self, budget: int, until_found: bool = False) -> None:
         """Take the steps of configurations until `budget` steps have been taken, the search is complete, or
-        (with `until_found`) every target is found."""
+        (with `until_found`) every witness target is found."""
         try:
             while self.done < len(self.configs):
-                if until_found and not self.open:
+                if until_found and not any(t.witness for t in self.open):
                     return
                 if self.steps() >= budget:
                     return

@@ -12,12 +12,12 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from functools import partial
+from functools import cache, partial
 
 import z3
 
 from mlca_verify.logic.classes import InputClass, TooManyClasses, input_classes
-from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Value, param_values
+from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Undecidable, Value, param_values
 from mlca_verify.logic.explicit import (
     Config,
     Counter,
@@ -53,10 +53,10 @@ class Answer:
 class Finite:
     """Searches over the configurations of `machine` (params at their defaults) for its non-parametric checks."""
 
-    def __init__(self, machine: Machine, rlimit: int, steps: int = STEPS) -> None:
+    def __init__(self, machine: Machine, timeout_ms: int, steps: int = STEPS) -> None:
         self.m = machine
         self.budget = steps
-        self.rlimit = rlimit
+        self.timeout_ms = timeout_ms
         self.compiler = Compiler(machine, param_values(machine))
         self.reason = ""
         self.classes: tuple[InputClass, ...] = ()
@@ -88,7 +88,7 @@ class Finite:
         registers = [c.compile(p.arg) for p in list(c.prevs)]
         if len(registers) != len(c.prevs):
             raise NotFinite("prev() inside prev()")
-        self.classes = input_classes(System(m), list(c.atoms), inputs_only, self.rlimit)
+        self.classes = input_classes(System(m), list(c.atoms), inputs_only, self.timeout_ms)
         self.targets = targets
         self.base = Search(step, self.classes, registers, (), list(targets.values()))
 
@@ -96,12 +96,13 @@ class Finite:
         m, c = self.m, self.compiler
         found: dict[str, Target] = {}
         for s in m.states:
-            found[f"reach:{s}"] = Target(f"reach:{s}", _reaches(c.states[s]))
+            found[f"reach:{s}"] = Target(f"reach:{s}", _reaches(c.states[s]), witness=True)
         for k, t in enumerate(m.transitions):
-            found[f"fires:{t.id}"] = Target(f"fires:{t.id}", _fires(k))
+            found[f"fires:{t.id}"] = Target(f"fires:{t.id}", _fires(k), witness=True)
         for k, v in enumerate(m.variables):
             if v.range is not None:
-                found[f"range:{v.name}"] = Target(f"range:{v.name}", _leaves(k, v.range[0], v.range[1]))
+                low, high = (int(x) if v.type == "int" and x.denominator == 1 else x for x in v.range)
+                found[f"range:{v.name}"] = Target(f"range:{v.name}", _leaves(k, low, high))
         if m.otherwise == "undefined":
             found["completeness"] = Target("completeness", _stuck)
         return found
@@ -156,7 +157,10 @@ class Finite:
         if not self.base.complete:
             return Answer(why=self.base.undecidable or self.incomplete(self.base))
         steps = Fraction(counter.bound(Env(0, (), (), ())))  # over params only: the loader keeps it from 1 on
-        edges = restricted_edges(self.base, lambda e: bool(counter.assume(e)) and not counter.goal(e))
+        try:
+            edges = restricted_edges(self.base, lambda e: bool(counter.assume(e)) and not counter.goal(e))
+        except Undecidable as exc:
+            return Answer(why=f"the explicit-state search stopped: {exc}")
         run = sustained(self.base, edges, max(int(steps), 1))
         return Answer(never=True) if run is None else Answer(run=run)
 
@@ -168,7 +172,10 @@ class Finite:
         self.base.run(self.budget)
         if self.base.undecidable:
             return Answer(why=self.base.undecidable)
-        found = lasso(self.base, restricted_edges(self.base, restricted))
+        try:
+            found = lasso(self.base, restricted_edges(self.base, restricted))
+        except Undecidable as exc:
+            return Answer(why=f"the explicit-state search stopped: {exc}")
         if found is not None:
             return Answer(run=found[0], loop_start=found[1])
         if self.base.complete:
@@ -209,25 +216,47 @@ def replay(
     the target's bad step, or its loop) confirming that the symbolic semantics takes the same run. None when it
     does not (the callers then ask the symbolic engines). `paths` keeps the paths built, for runs asked again
     (a state reached and the transition that enters it often share theirs)."""
+    paths = {} if paths is None else paths
     key = (id(real), tuple(run), loop_start)
-    if paths is None or key not in paths:
-        built = _path(finite, name, real, run, loop_start)
-        if paths is None:
-            paths = {}
-        paths[key] = built
+    if key not in paths:
+        paths[key] = _prefix(paths, key) or _path(finite, name, real, run, loop_start)
     path = paths[key]
     return path if path is not None and z3.is_true(path.model.eval(final(path), model_completion=True)) else None
+
+
+def prebuild(finite: Finite, real: System, runs: Sequence[Sequence[int]], paths: Paths) -> None:
+    """Build the paths of `runs` longest first, so that a run that begins another is taken from it (the witnesses
+    of a search are branches of one tree of shortest runs, and most end inside a longer one)."""
+    for run in sorted(runs, key=len, reverse=True):
+        key = (id(real), tuple(run), None)
+        if key not in paths:
+            paths[key] = _prefix(paths, key) or _path(finite, "", real, run, None)
+
+
+def _prefix(paths: Paths, key: tuple[int, tuple[int, ...], int | None]) -> Path | None:
+    """The path of a run that a longer run already built begins with, cut to its length."""
+    system, run, loop_start = key
+    if loop_start is not None:
+        return None
+    n = len(run)
+    for (other, longer, start), path in paths.items():
+        if other == system and start is None and path is not None and len(longer) > n and longer[:n] == run:
+            return Path(path.system, path.model, path.frames[: n + 1], path.inputs[:n], path.terms[:n])
+    return None
 
 
 def _path(finite: Finite, name: str, real: System, run: Sequence[int], loop_start: int | None) -> Path | None:
     search, counter = finite.base, finite.counters.get(name)
     assert search is not None
     configs, counts = [search.configs[0]], [Fraction(0)]
-    for c in run:
-        taken = search.take(configs[-1], finite.classes[c], total=True)
-        assert taken is not None and taken[1] is not None and taken[3] is not None
-        configs.append(taken[3])
-        counts.append(Fraction(0 if counter is None else count_after(counter, taken[1], counts[-1])))
+    try:
+        for c in run:
+            taken = search.take(configs[-1], finite.classes[c], total=True)
+            assert taken is not None and taken[1] is not None and taken[3] is not None
+            configs.append(taken[3])
+            counts.append(Fraction(0 if counter is None else count_after(counter, taken[1], counts[-1])))
+    except Undecidable:  # a step the search never took (the last of a stuck run) divides by zero
+        return None
     frames = [real.frame(f"x{n}") for n in range(len(configs))]
     inputs = [real.inputs(f"x{n}") for n in range(len(run))]
     links = [real.step(frames[n], inputs[n], frames[n + 1]) for n in range(len(run))]
@@ -238,7 +267,7 @@ def _path(finite: Finite, name: str, real: System, run: Sequence[int], loop_star
     ]
     for i, c in zip(inputs, run, strict=True):
         cls = finite.classes[c]
-        pins += [b == z3.BoolVal(v) for b, v in zip(i.bools.values(), cls.bools, strict=True)]
+        pins += [b == _numeral(v, "bool") for b, v in zip(i.bools.values(), cls.bools, strict=True)]
         pins += [x == v for x, v in zip(i.signals.values(), cls.signals, strict=True)]
     solver = z3.Solver()
     solver.add(*pins)
@@ -259,8 +288,8 @@ def _frame_values(
     m, prevs = finite.m, finite.compiler.prevs
     n_vars = len(m.variables)
     pairs: list[tuple[z3.ExprRef, z3.ExprRef]] = [
-        (frame.mode, z3.IntVal(config[0])),
-        (frame.first, z3.BoolVal(config[1])),
+        (frame.mode, _numeral(config[0], "int")),
+        (frame.first, _numeral(config[1], "bool")),
     ]
     for k, v in enumerate(m.variables):
         pairs.append((frame.variables[v.name], _numeral(config[2 + k], v.type)))
@@ -273,7 +302,9 @@ def _frame_values(
     return pairs
 
 
+@cache
 def _numeral(value: Value | None, kind: str) -> z3.ExprRef:
+    """The z3 numeral of a value (made once: a long run pins the same few values again and again)."""
     if kind == "bool":
         return z3.BoolVal(bool(value))
     q = Fraction(value)  # type: ignore[arg-type]
@@ -339,10 +370,11 @@ class Tracer:
         if c.atoms != atoms or c.prevs != prevs:
             self.ok = False
         c.atoms, c.prevs = atoms, prevs
-        self.per_class = [self._witness_values(cls, frame_free) for cls in finite.classes] if self.ok else []
+        system = System(m)
+        self.per_class = [self._witness_values(system, cls, frame_free) for cls in finite.classes] if self.ok else []
 
-    def _witness_values(self, cls: InputClass, names: list[str]) -> dict[str, Number]:
-        system = System(self.f.m)
+    @staticmethod
+    def _witness_values(system: System, cls: InputClass, names: list[str]) -> dict[str, Number]:
         frame, inputs = system.frame("w"), system.inputs("w")
         at = system.valuation(frame, inputs)
         pairs = [(b, z3.BoolVal(v)) for b, v in zip(inputs.bools.values(), cls.bools, strict=True)]
@@ -355,8 +387,16 @@ class Tracer:
         return values
 
     def counterexample(self, run: Sequence[int], loop_start: int | None) -> Counterexample | None:
+        """The counterexample of `run`; None where a value along it is one the engine's arithmetic leaves open
+        (a division by zero, which z3's trace shows as some value)."""
         if not self.ok:
             return None
+        try:
+            return self._counterexample(run, loop_start)
+        except Undecidable:
+            return None
+
+    def _counterexample(self, run: Sequence[int], loop_start: int | None) -> Counterexample:
         f, m = self.f, self.f.m
         search = f.base
         assert search is not None

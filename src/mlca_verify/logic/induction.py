@@ -7,13 +7,13 @@ separate query checks: it holds initially, is kept by every step, and excludes e
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Literal
 
 import z3
 
+from mlca_verify.logic.solver import budget
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System
 from mlca_verify.model import Var
 
@@ -28,7 +28,6 @@ class Limits:
     lasso: int = 12  # the longest lasso searched for an unbounded response
     timeout_ms: int = 10_000
     steps: int = 3_000_000  # the steps the explicit-state engine may take on one search (0: not used)
-    rlimit: int = 200_000_000  # z3's resource budget for each query of the explicit engine's input classes
 
 
 @dataclass
@@ -64,7 +63,7 @@ class Unrolling:
         self.tag = tag
         self.timeout_ms = timeout_ms
         self.solver = z3.Solver()
-        self.solver.set("timeout", timeout_ms)
+        budget(self.solver, timeout_ms)
         self.frames = [system.frame(f"{tag}0")]
         self.inputs: list[StepInputs] = []
         self.terms: list[StepTerms] = []
@@ -144,7 +143,7 @@ def _follow(abstract: Unrolling, run: Unrolling, bad: Bad, steps: int, probes: P
                 before = run.terms[n].pre
                 wanted = [real.ev(Var(name), before) == fixed(v) for name, v in seen.abstract.items()]
                 probe = z3.Solver()
-                probe.set("timeout", run.timeout_ms)
+                budget(probe, run.timeout_ms)
                 probe.add(*[a == fixed(b) for a, b in frame], *pins, *wanted)
                 probe.add(real.assumptions(run.frames[n], run.inputs[n]))
                 found = probe.model() if probe.check() == z3.sat else None
@@ -209,7 +208,8 @@ def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits) -
     """Is step k of `base` bad? A real counterexample, an unknown, or None (no bad step k; recorded)."""
     answer = base.check(base.bad(bad, k))
     if answer == z3.unknown:
-        return Search("unknown", engine="bmc", reason=f"BMC at depth {k + 1}: {base.solver.reason_unknown()}")
+        why = stopped(base.solver.reason_unknown(), limits.timeout_ms)
+        return Search("unknown", engine="bmc", reason=f"BMC at depth {k + 1}: {why}")
     if answer == z3.sat:
         if base.system is real:
             return Search("reachable", base.path(k + 1), "bmc", k + 1)
@@ -231,7 +231,8 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     inv = z3.Function("Inv", *[t.sort() for t in state], z3.BoolSort())
     err = z3.Function("Err", z3.BoolSort())
     engine = z3.Fixedpoint()
-    engine.set(engine="spacer", timeout=timeout_ms)
+    engine.set(engine="spacer")
+    budget(engine, timeout_ms)
     engine.set("xform.slice", False)
     engine.set("xform.inline_linear", False)
     engine.set("xform.inline_eager", False)
@@ -245,14 +246,25 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     try:
         answer = engine.query(err())
     except z3.Z3Exception as exc:  # a timeout cancels the query
-        return Search("unknown", engine="pdr", reason=f"PDR: {exc.value.decode(errors='replace')}")
+        return Search("unknown", engine="pdr", reason=f"PDR: {stopped(exc.value.decode(errors='replace'), timeout_ms)}")
     if answer == z3.sat:
         return Search("reachable", engine="pdr", reason="PDR found a bad step reachable (on the abstraction)")
     if answer == z3.unknown:
-        return Search("unknown", engine="pdr", reason=f"PDR: {engine.reason_unknown()}")
+        return Search("unknown", engine="pdr", reason=f"PDR: {stopped(engine.reason_unknown(), timeout_ms)}")
     certificate = z3.simplify(z3.substitute_vars(engine.get_cover_delta(-1, inv), *state))
     checked = check_certificate(system, bad, certificate, timeout_ms)
     return Search("unreachable", engine="pdr", certificate=certificate.sexpr(), certificate_checked=checked)
+
+
+def stopped(raw: str, timeout_ms: int) -> str:
+    """Why z3 gave up, in words, with what to try: its own words ("canceled", "timeout") say only that it ran out of
+    time."""
+    if raw.strip().lower() in ("canceled", "timeout", "resource limits reached", "max. resource limit exceeded"):
+        return (
+            f"it ran out of its budget (z3's resources for {timeout_ms:,} ms; try a larger --timeout-ms or a smaller"
+            " param range)"
+        )
+    return raw
 
 
 def _same(term: z3.ExprRef, among: list[z3.ExprRef]) -> bool:
@@ -274,7 +286,7 @@ def check_certificate(system: System, bad: Bad, certificate: z3.BoolRef, timeout
     ]
     for query in queries:
         solver = z3.Solver()
-        solver.set("timeout", timeout_ms)
+        budget(solver, timeout_ms)
         if solver.check(query) != z3.unsat:
             return False
     return True
@@ -306,7 +318,6 @@ def decide(
     """k-induction first. When a bad step is expected (`certify` false: a witness is wanted), deeper BMC, then PDR;
     otherwise PDR (for a proof, or for the certificate of a k-induction proof), then deeper BMC. `quick` stops
     after k-induction (what it leaves open is unknown)."""
-    start = time.perf_counter()
     found, base = k_induction(system, bad, real, limits)
     if quick and found.answer == "unknown":
         return found
@@ -320,10 +331,9 @@ def decide(
             return refined(real, bad, limits, certify, witness)
         if witness.answer == "reachable":
             return witness
-    remaining = max(1000, limits.timeout_ms - int(1000 * (time.perf_counter() - start)))
     if found.answer == "unreachable":
-        return certified(found, system, bad, remaining) if certify else found
-    proof = pdr(system, bad, remaining)
+        return certified(found, system, bad, limits.timeout_ms) if certify else found
+    proof = pdr(system, bad, limits.timeout_ms)
     if proof.answer == "unreachable":
         proof.k = found.k
         proof.notes.append(f"k-induction did not close up to k = {found.k}")

@@ -15,6 +15,7 @@ import z3
 
 from mlca_verify.escape import c_form
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
+from mlca_verify.logic.solver import budget
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, python_value, sort_of, value_of
 from mlca_verify.model import Expr, Lemma, Machine, Var, Verdict, nodes
 
@@ -42,7 +43,7 @@ def query(machine: Machine, lemma: Lemma, parametric: bool, timeout_ms: int) -> 
     bools = {i.name: z3.Bool(f"input!{i.name}") for i in machine.inputs}
     signals = {s.name: z3.Const(f"signal!{s.name}", sort_of(s.type)) for s in machine.signals}
     solver = z3.Solver()
-    solver.set("timeout", timeout_ms)
+    budget(solver, timeout_ms)
     for s in machine.signals:
         low, high = (value_of(v, s.type) for v in s.range)
         solver.add(signals[s.name] >= low, signals[s.name] <= high)

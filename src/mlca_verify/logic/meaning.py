@@ -12,6 +12,7 @@ from typing import Literal
 
 import z3
 
+from mlca_verify.logic.solver import budget
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of
 from mlca_verify.model import Expr, Invariant, Liveness, Machine, Num, own, prevs_of, show
 
@@ -71,7 +72,7 @@ def _expressions(m: Machine) -> list[Expr]:
 
 def implies(a: z3.ExprRef, b: z3.ExprRef, timeout_ms: int) -> bool | None:
     solver = z3.Solver()
-    solver.set("timeout", timeout_ms)
+    budget(solver, timeout_ms)
     answer = solver.check(z3.And(a, z3.Not(b)))
     return None if answer == z3.unknown else answer == z3.unsat
 

@@ -11,6 +11,20 @@ from mlca_verify.model import Const, Expr, Not, StateIn, Var, as_binop
 
 Answer = Literal["sat", "unsat", "unknown"]
 DEFAULT_TIMEOUT_MS = 10_000
+# A query's budget is counted in z3's resource units (rlimit), not in time, so that a loaded machine gives the same
+# verdicts as an idle one: RESOURCE_PER_MS units for each millisecond of `--timeout-ms`, about what z3 spends in
+# a millisecond on the reference machine (bench/bench_check.py measures it). The clock stops a query only at GUARD
+# times its budget (and never before GUARD_MIN_MS), against a prover that hangs.
+RESOURCE_PER_MS = 3_000  # PDR on an idle 2-core machine: 2,900 per ms (bench_check.py, "z3 resources")
+GUARD = 10
+GUARD_MIN_MS = 60_000
+RLIMIT_MAX = 4_000_000_000  # z3 keeps the limit in 32 bits
+
+
+def budget(query: z3.Solver | z3.Fixedpoint, timeout_ms: int) -> None:
+    """Give a solver (or PDR's engine) the budget of `timeout_ms`: its resource limit, and the guard's clock."""
+    query.set("rlimit", min(timeout_ms * RESOURCE_PER_MS, RLIMIT_MAX))
+    query.set("timeout", max(timeout_ms * GUARD, GUARD_MIN_MS))
 
 
 def encode(expr: Expr, inputs: Mapping[str, z3.BoolRef], state: str | None = None) -> z3.BoolRef:
@@ -37,7 +51,7 @@ class Solver:
         self.names = tuple(input_names)
         self.vars = {name: z3.Bool(name) for name in self.names}
         self._z3 = z3.Solver()
-        self._z3.set("timeout", timeout_ms)
+        budget(self._z3, timeout_ms)
         self.queries = 0
         self.unknowns = 0
 

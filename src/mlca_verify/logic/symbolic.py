@@ -163,6 +163,7 @@ class System:
         self.shared_params = {p.name: z3.Const(f"param!{p.name}", sort_of(p.type)) for p in machine.params}
         self.prev_types = [self.type_of(p.arg) for p in self.prevs]
         self._template: tuple[Frame, StepInputs, Frame, z3.BoolRef, StepTerms] | None = None
+        self._defaults: dict[str, z3.ExprRef] | None = None
         variables = {v.name for v in machine.variables}
         self.assumptions_read_frame = any(
             isinstance(n, StateIn) or (isinstance(n, Var) and n.name in variables)
@@ -197,7 +198,9 @@ class System:
     def param_values(self, frame: Frame) -> dict[str, z3.ExprRef]:
         if self.parametric:
             return frame.params
-        return {p.name: value_of(p.default, p.type) for p in self.m.params}
+        if self._defaults is None:
+            self._defaults = {p.name: value_of(p.default, p.type) for p in self.m.params}
+        return dict(self._defaults)
 
     def param_ranges(self, params: Mapping[str, z3.ExprRef]) -> z3.BoolRef:
         """Each param within its range (in a parametric query)."""
