@@ -88,7 +88,10 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--only", metavar="IDS", help="comma-separated property names to report (others are hidden)")
     check.add_argument("--quiet", action="store_true", help="print only the one-line summary per spec")
     check.add_argument(
-        "--timeout-ms", type=TIMEOUT_ARG, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query"
+        "--timeout-ms",
+        type=TIMEOUT_ARG,
+        default=DEFAULT_TIMEOUT_MS,
+        help="budget of each solver query: z3's resources for about this many ms, not a clock",
     )
     check.add_argument("--junit", metavar="FILE", help="also write JUnit XML: one test case per property")
     check.add_argument("--sarif", metavar="FILE", help="also write SARIF 2.1.0: findings at their spec lines")
@@ -102,7 +105,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     diff.add_argument("left", metavar="OLD", help="the spec before the change")
     diff.add_argument("right", metavar="NEW", help="the spec after the change")
-    diff.add_argument("--timeout-ms", type=TIMEOUT_ARG, default=DEFAULT_TIMEOUT_MS, help="timeout of each solver query")
+    diff.add_argument(
+        "--timeout-ms",
+        type=TIMEOUT_ARG,
+        default=DEFAULT_TIMEOUT_MS,
+        help="budget of each solver query: z3's resources for about this many ms, not a clock",
+    )
     _allow_outside(diff)
 
     gen = sub.add_parser("gen", help="generate Python and C99 code from specs (or check generated/ for drift)")

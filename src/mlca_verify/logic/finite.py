@@ -371,19 +371,21 @@ class Tracer:
             self.ok = False
         c.atoms, c.prevs = atoms, prevs
         system = System(m)
-        self.per_class = [self._witness_values(system, cls, frame_free) for cls in finite.classes] if self.ok else []
+        self._inputs = system.inputs("w")
+        at = system.valuation(system.frame("w"), self._inputs)
+        self._terms = [system.ev(Var(name), at) for name in frame_free] if self.ok else []
+        self.per_class = [self._witness_values(cls, frame_free) for cls in finite.classes] if self.ok else []
 
-    @staticmethod
-    def _witness_values(system: System, cls: InputClass, names: list[str]) -> dict[str, Number]:
-        frame, inputs = system.frame("w"), system.inputs("w")
-        at = system.valuation(frame, inputs)
-        pairs = [(b, z3.BoolVal(v)) for b, v in zip(inputs.bools.values(), cls.bools, strict=True)]
-        pairs += list(zip(inputs.signals.values(), cls.signals, strict=True))
-        values = {}
-        for name in names:
-            term = z3.simplify(z3.substitute(system.ev(Var(name), at), *pairs))
-            values[name] = python_value(term)
-        values.update({s: python_value(z3.simplify(v)) for s, v in zip(system.signals, cls.signals, strict=True)})
+    def _witness_values(self, cls: InputClass, names: list[str]) -> dict[str, Number]:
+        """The values of the frame-free definitions and outputs, and of the signals, in a class's witness."""
+        bools, signals = self._inputs.bools.values(), self._inputs.signals
+        pairs = [(b, z3.BoolVal(v)) for b, v in zip(bools, cls.bools, strict=True)]
+        pairs += list(zip(signals.values(), cls.signals, strict=True))
+        values = {
+            name: python_value(z3.simplify(z3.substitute(t, *pairs)))
+            for name, t in zip(names, self._terms, strict=True)
+        }
+        values.update({s: python_value(z3.simplify(v)) for s, v in zip(signals, cls.signals, strict=True)})
         return values
 
     def counterexample(self, run: Sequence[int], loop_start: int | None) -> Counterexample | None:
