@@ -1,9 +1,10 @@
 """The explicit-state engine: a breadth-first search of a machine's configurations, one step per input class.
 
 A configuration is the frame of the symbolic engine with its params fixed: the mode, the variables, the
-registers prev() reads, the counters of bounded responses, and whether no step has been taken yet. From each
+registers prev() reads, and whether no step has been taken yet (a bounded response's counter is not kept: its
+longest run of waiting steps is found over the graph of configurations, `sustained`). From each
 configuration the search takes one step per input class (`classes`): the first enabled transition fires,
-variables take their updates, registers and counters follow, exactly as `symbolic.System.step` says. Every
+variables take their updates, registers follow, exactly as `symbolic.System.step` says. Every
 step is tested against the search's targets (a state reached, a transition fired, a property that fails): the
 first step to meet a target ends the shortest run that does, and when the search has seen every configuration
 a target never met is proved unreachable.
@@ -23,7 +24,7 @@ from mlca_verify.logic.classes import InputClass
 from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Undecidable, Value
 from mlca_verify.model import Expr, Machine
 
-Config = tuple[Value | None, ...]  # mode, first, variables..., registers..., counters...
+Config = tuple[Value | None, ...]  # mode, first, variables..., registers...
 # A target's test of one step: the environment before it, after it (None: no transition enabled where the
 # machine is undefined, so no step), the transition that fired (-1: none) and the configuration reached.
 Test = Callable[[Env, "Env | None", int, "Config | None"], bool]
@@ -46,7 +47,6 @@ class Step:
     compiler: Compiler
     transitions: list[list[tuple[int, Eval, tuple[tuple[int, Eval], ...], int]]]
     every: tuple[Eval | None, ...]
-    real: tuple[bool, ...]
     assumptions: tuple[Eval, ...]
 
 
@@ -64,11 +64,10 @@ def compile_step(machine: Machine, compiler: Compiler, frame_assumptions: Sequen
         for s in machine.states if t.sources is None else t.sources:
             per_mode[compiler.states[s]].append((k, guard, updates, target))
     every = tuple(None if v.every is None else compiler.coerced(v.every, v.type) for v in machine.variables)
-    real = tuple(v.type == "real" for v in machine.variables)
     assumptions = tuple(compiler.compile(a) for a in frame_assumptions)
     if compiler.prevs:
         raise NotFinite("prev() in a guard, an update or an assumption")
-    return Step(machine, compiler, per_mode, every, real, assumptions)
+    return Step(machine, compiler, per_mode, every, assumptions)
 
 
 @dataclass
@@ -88,7 +87,6 @@ class Search:
     step: Step
     classes: Sequence[InputClass]
     registers: Sequence[Eval]
-    counters: Sequence[Counter]
     targets: list[Target]
     configs: list[Config] = field(default_factory=list)
     index: dict[Config, int] = field(default_factory=dict)
@@ -105,7 +103,6 @@ class Search:
             True,
             *(_initial(v.initial, v.type) for v in m.variables),
             *(None for _ in self.registers),
-            *(0 for _ in self.counters),
         )
         self.configs.append(start)
         self.index[start] = 0
@@ -159,7 +156,6 @@ class Search:
         mode, first = config[0], config[1]
         variables = config[2 : 2 + n_vars]
         registers = config[2 + n_vars : 2 + n_vars + n_regs]
-        counters = config[2 + n_vars + n_regs :]
         before = Env(mode, variables, cls.bools, cls.atoms)  # type: ignore[arg-type]
         if not all(a(before) for a in s.assumptions):
             return None
@@ -181,8 +177,7 @@ class Search:
         previous = tuple(r(before) for r in self.registers) if first else registers
         after = Env(target, post_vars, cls.bools, cls.atoms, previous)  # type: ignore[arg-type]
         post_regs = tuple(r(after) for r in self.registers)
-        post_counts = tuple(count_after(c, after, n) for c, n in zip(self.counters, counters, strict=True))
-        return before, after, fired, (target, False, *post_vars, *post_regs, *post_counts)
+        return before, after, fired, (target, False, *post_vars, *post_regs)
 
     def steps(self) -> int:
         """The steps taken so far (one per class of each configuration expanded)."""
@@ -197,12 +192,6 @@ class Search:
             at, c = self.parent[at]
             classes.append(c)
         return classes[::-1]
-
-    def counter(self, config: Config, k: int) -> int:
-        n = len(self.step.every) + len(self.registers)
-        value = config[2 + n + k]
-        assert isinstance(value, int)
-        return value
 
 
 def _initial(value: object, kind: str) -> Value:

@@ -90,7 +90,7 @@ class Finite:
             raise NotFinite("prev() inside prev()")
         self.classes = input_classes(System(m), list(c.atoms), inputs_only, self.timeout_ms)
         self.targets = targets
-        self.base = Search(step, self.classes, registers, (), list(targets.values()))
+        self.base = Search(step, self.classes, registers, list(targets.values()))
 
     def _builtins(self) -> dict[str, Target]:
         m, c = self.m, self.compiler
