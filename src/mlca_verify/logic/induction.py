@@ -224,13 +224,20 @@ def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits) -
 
 def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     """Spacer (z3's PDR for constrained Horn clauses, with global guidance) on `system`: an inductive invariant
-    that excludes every bad step."""
+    that excludes every bad step. The clauses are solved in a z3 context of their own: Spacer's search follows the
+    order of z3's terms, which in a shared context depends on every term made before, so the same query could
+    come out proved in one call and unknown in the next; in a fresh context it is the same in every call."""
     f0, i, f1 = system.frame("p0"), system.inputs("p0"), system.frame("p1")
     link, terms = system.step(f0, i, f1)
-    state = f0.terms()
-    inv = z3.Function("Inv", *[t.sort() for t in state], z3.BoolSort())
-    err = z3.Function("Err", z3.BoolSort())
-    engine = z3.Fixedpoint()
+    ctx = z3.Context()
+
+    def here(t: z3.ExprRef) -> z3.ExprRef:
+        return t.translate(ctx)
+
+    state = [here(t) for t in f0.terms()]
+    inv = z3.Function("Inv", *[t.sort() for t in state], z3.BoolSort(ctx))
+    err = z3.Function("Err", z3.BoolSort(ctx))
+    engine = z3.Fixedpoint(ctx=ctx)
     engine.set(engine="spacer")
     budget(engine, timeout_ms)
     engine.set("xform.slice", False)
@@ -238,11 +245,13 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     engine.set("xform.inline_eager", False)
     engine.set("spacer.global", True)
     engine.register_relation(inv, err)
-    engine.declare_var(*{t.get_id(): t for t in [*state, *i.terms(), *f1.terms()]}.values())
-    engine.rule(inv(*state), z3.And(system.init(f0), system.well_formed(f0)))
-    moves = z3.And(inv(*state), link, system.assumptions(f0, i), system.well_formed(f1))
-    engine.rule(inv(*f1.terms()), moves)
-    engine.rule(err(), z3.And(moves, bad(system, f0, i, f1, terms)))
+    after = [here(t) for t in f1.terms()]
+    engine.declare_var(*{t.get_id(): t for t in [*state, *(here(t) for t in i.terms()), *after]}.values())
+    engine.rule(inv(*state), here(z3.And(system.init(f0), system.well_formed(f0))))
+    step = here(z3.And(link, system.assumptions(f0, i), system.well_formed(f1)))
+    moves = z3.And(inv(*state), step)
+    engine.rule(inv(*after), moves)
+    engine.rule(err(), z3.And(moves, here(bad(system, f0, i, f1, terms))))
     try:
         answer = engine.query(err())
     except z3.Z3Exception as exc:  # a timeout cancels the query
@@ -251,7 +260,8 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
         return Search("reachable", engine="pdr", reason="PDR found a bad step reachable (on the abstraction)")
     if answer == z3.unknown:
         return Search("unknown", engine="pdr", reason=f"PDR: {stopped(engine.reason_unknown(), timeout_ms)}")
-    certificate = z3.simplify(z3.substitute_vars(engine.get_cover_delta(-1, inv), *state))
+    found = z3.simplify(z3.substitute_vars(engine.get_cover_delta(-1, inv), *state))
+    certificate = found.translate(z3.main_ctx())
     checked = check_certificate(system, bad, certificate, timeout_ms)
     return Search("unreachable", engine="pdr", certificate=certificate.sexpr(), certificate_checked=checked)
 
