@@ -421,7 +421,10 @@ MACHINES = ROOT / "tests" / "machines"
 def timers(reps: int) -> None:
     """The corpus's long timers, with the explicit-state engine first (as `check` runs) and with the symbolic
     engines alone, side by side; then the growth of check time with a timer's length."""
-    print("long timers                       explicit first (s)  unknown   symbolic alone (s)  unknown")
+    print(
+        "corpus machines                   explicit first (s)  unknown   symbolic alone (s)  unknown"
+        "   median per property, explicit first (ms)"
+    )
     for path in sorted(MACHINES.glob("*.toml")):
         machine = load_spec(path).machine
         found: dict[str, list[Result]] = {}
@@ -434,7 +437,11 @@ def timers(reps: int) -> None:
 
         first, alone = interleaved(reps, first_run, alone_run)
         unknown = {k: sum(r.verdict == "unknown" for r in v) for k, v in found.items()}
-        print(f"  {path.stem:30} {first:18.3f}  {unknown['explicit']:7}   {alone:18.3f}  {unknown['symbolic']:7}")
+        median = statistics.median(r.seconds for r in found["explicit"]) * 1000
+        print(
+            f"  {path.stem:30} {first:18.3f}  {unknown['explicit']:7}   {alone:18.3f}  {unknown['symbolic']:7}"
+            f"   {median:10.1f}"
+        )
     print("\ncrossing, minimum green of N steps: whole check_all (s), explicit first")
     text = (MACHINES / "crossing_10hz.toml").read_text()
     for n in (10, 100, 1000, 10_000):

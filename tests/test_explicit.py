@@ -15,8 +15,9 @@ from mlca_verify.logic import check_all
 from mlca_verify.logic.datachecks import DataChecker
 from mlca_verify.logic.explicit import _components, _longest, lasso, stem, sustained
 from mlca_verify.logic.finite import Finite
-from mlca_verify.logic.induction import Limits, pdr
-from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System
+from mlca_verify.logic.induction import Limits, pdr, stopped
+from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, python_value
+from mlca_verify.model import Var
 from mlca_verify.spec import load_spec, load_text
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -199,3 +200,58 @@ def test_pdr_answers_the_same_query_the_same_way_in_every_call() -> None:
         found = pdr(system, bad, 300)
         answers.append((found.answer, found.reason, found.certificate_checked))
     assert len(set(answers)) == 1  # the verdict (the certificate's text may list its terms in another order)
+
+
+def test_input_classes_are_every_feasible_combination_with_a_witness() -> None:
+    spec = """
+[machine]
+name = "Classes"
+initial = "A"
+states = ["A", "B"]
+[inputs]
+b = { doc = "a free input" }
+c = { doc = "an input an assumption ties to the signal" }
+[signals]
+x = { type = "real", unit = "m", range = [0.0, 10.0], doc = "a reading" }
+[definitions]
+high = { expr = "x > 5.0", if_invalid = false, doc = "above 5" }
+top = { expr = "x > 8.0", if_invalid = false, doc = "above 8" }
+[[assume]]
+id = "c-when-top"
+expr = "top -> c"
+[[transition]]
+id = "go"
+from = "A"
+to = "B"
+when = "b and high and not top"
+"""
+    machine = load_text(spec, "classes.toml")
+    finite = Finite(machine, Limits().timeout_ms)
+    assert finite.usable
+    names = [a.name for a in finite.compiler.atoms if isinstance(a, Var)]
+    assert sorted(names) == ["high", "top"]
+    atoms = [dict(zip(names, cls.atoms, strict=True)) for cls in finite.classes]
+    found = {(cls.bools, a["high"], a["top"]) for cls, a in zip(finite.classes, atoms, strict=True)}
+    # high and top: (no, no), (yes, no), (yes, yes); top needs c; b is free
+    expected = {
+        ((b, c), high, top)
+        for b in (False, True)
+        for c in (False, True)
+        for high, top in [(False, False), (True, False), (True, True)]
+        if c or not top
+    }
+    assert found == expected
+    for cls in finite.classes:  # each witness realises its class (an invalid sample reads neither high nor top)
+        x = python_value(cls.signals[0])
+        values = dict(zip(names, cls.atoms, strict=True))
+        valid = 0.0 <= x <= 10.0
+        assert values["high"] == (valid and x > 5.0) and values["top"] == (valid and x > 8.0)
+
+
+@pytest.mark.parametrize(
+    "raw", ["canceled", "push canceled", "timeout", "max. resource limit exceeded", "resource limits reached"]
+)
+def test_every_way_z3_says_it_ran_out_is_put_in_words(raw: str) -> None:
+    said = stopped(raw, 300)
+    assert "canceled" not in said and "ran out of its budget (z3's resources for 300 ms" in said
+    assert stopped("smt tactic failed to show goal to be sat/unsat (incomplete quantifiers)", 300).startswith("smt")

@@ -19,6 +19,7 @@ from mlca_verify.logic.symbolic import System
 from mlca_verify.model import Expr
 
 CLASS_LIMIT = 4096  # more classes than this: the steps of a frame are too many to enumerate
+COLUMN_LIMIT = 16  # more linked boolean inputs and atoms than this: not split into classes at all
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,8 @@ def input_classes(
     bools = list(inputs.bools.values())
     linked = _linked(bools, [*atom_terms, constraint])
     columns = [b for k, b in enumerate(bools) if k in linked] + atom_terms
+    if len(columns) > COLUMN_LIMIT:  # the search below would ask up to 2 ** columns queries to find out
+        raise TooManyClasses(f"{len(columns)} linked inputs and atoms: more than {COLUMN_LIMIT}")
     solver = z3.Solver()
     budget(solver, timeout_ms)
     solver.add(constraint)

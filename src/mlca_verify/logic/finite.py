@@ -1,10 +1,11 @@
 """The explicit-state engine for the checks of one machine with data whose params are fixed: what `DataChecker`
 asks of it before (and after) the symbolic engines.
 
-One search holds every built-in check and invariant as a target; each bounded response has a search of its own
-(its counter is part of the configuration). A target met gives the classes of the shortest run that meets it,
-which the caller replays on the symbolic system for its trace (and as a check that both engines agree on it); a
-search that saw every configuration proves each target it never met.
+One search holds every built-in check and invariant as a target. A target met gives the classes of the shortest
+run that meets it, which the caller replays on the symbolic system (as a check that both engines agree on it)
+and the `Tracer` turns into a counterexample; a search that saw every configuration proves each target it never
+met. Responses are decided over the graph of all configurations once the search is complete: a bounded one by the
+longest stretch of waiting steps, one without a bound by a loop of them.
 """
 
 from __future__ import annotations

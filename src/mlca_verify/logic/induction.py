@@ -224,17 +224,21 @@ def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits) -
 
 def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     """Spacer (z3's PDR for constrained Horn clauses, with global guidance) on `system`: an inductive invariant
-    that excludes every bad step. The clauses are solved in a z3 context of their own: Spacer's search follows the
-    order of z3's terms, which in a shared context depends on every term made before, so the same query could
-    come out proved in one call and unknown in the next; in a fresh context it is the same in every call."""
+    that excludes every bad step. The clauses are solved in a z3 context of their own, rebuilt there from their
+    text: Spacer's search follows the order in which z3 made its terms, which in a shared context (or through a
+    translation into a new one) depends on every term made before, so the same query could come out proved in one
+    call and unknown in the next; rebuilt from text its answer is the same in every call and every process."""
     f0, i, f1 = system.frame("p0"), system.inputs("p0"), system.frame("p1")
     link, terms = system.step(f0, i, f1)
     ctx = z3.Context()
+    named = {t.decl().name(): t for t in [*f0.terms(), *i.terms(), *f1.terms()]}
+    decls = {name: z3.Const(name, t.sort().translate(ctx)) for name, t in named.items()}
 
-    def here(t: z3.ExprRef) -> z3.ExprRef:
-        return t.translate(ctx)
+    def here(formula: z3.BoolRef) -> z3.BoolRef:
+        found: z3.BoolRef = z3.parse_smt2_string(f"(assert {formula.sexpr()})", decls=decls, ctx=ctx)[0]
+        return found
 
-    state = [here(t) for t in f0.terms()]
+    state = [decls[t.decl().name()] for t in f0.terms()]
     inv = z3.Function("Inv", *[t.sort() for t in state], z3.BoolSort(ctx))
     err = z3.Function("Err", z3.BoolSort(ctx))
     engine = z3.Fixedpoint(ctx=ctx)
@@ -245,8 +249,8 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     engine.set("xform.inline_eager", False)
     engine.set("spacer.global", True)
     engine.register_relation(inv, err)
-    after = [here(t) for t in f1.terms()]
-    engine.declare_var(*{t.get_id(): t for t in [*state, *(here(t) for t in i.terms()), *after]}.values())
+    after = [decls[t.decl().name()] for t in f1.terms()]
+    engine.declare_var(*decls.values())
     engine.rule(inv(*state), here(z3.And(system.init(f0), system.well_formed(f0))))
     step = here(z3.And(link, system.assumptions(f0, i), system.well_formed(f1)))
     moves = z3.And(inv(*state), step)
@@ -269,7 +273,8 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
 def stopped(raw: str, timeout_ms: int) -> str:
     """Why z3 gave up, in words, with what to try: its own words ("canceled", "timeout") say only that it ran out of
     time."""
-    if raw.strip().lower() in ("canceled", "timeout", "resource limits reached", "max. resource limit exceeded"):
+    said = raw.strip().lower()
+    if any(word in said for word in ("canceled", "cancelled", "timeout", "resource limit")):
         return (
             f"it ran out of its budget (z3's resources for {timeout_ms:,} ms; try a larger --timeout-ms or a smaller"
             " param range)"
