@@ -13,7 +13,7 @@ import z3
 
 from mlca_verify.logic import check_all
 from mlca_verify.logic.datachecks import DataChecker
-from mlca_verify.logic.explicit import _components, _longest, lasso, stem, sustained
+from mlca_verify.logic.explicit import _components, _longest, lasso, sustained
 from mlca_verify.logic.finite import Finite
 from mlca_verify.logic.induction import Limits, pdr, stopped
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, python_value
@@ -141,7 +141,7 @@ def test_lasso_and_sustained_runs_are_the_shortest() -> None:
     search = finite.base
     # every configuration's stem is as long as its depth
     for at in (0, 1, len(search.configs) // 2, len(search.configs) - 1):
-        assert len(stem(search, at)) == search.depth[at]
+        assert len(search.stem(at)) == search.depth[at]
     edges = [[(to, c) for c in range(len(search.classes))] for to in range(1, 3)] + [[] for _ in range(search.done - 2)]
     run = sustained(search, edges, 2)
     assert run is not None and len(run) == 2

@@ -187,7 +187,11 @@ class Search:
         """The classes of the shortest run whose last step meets `target` (found)."""
         assert target.found is not None
         at, c = target.found
-        classes = [c]
+        return [*self.stem(at), c]
+
+    def stem(self, at: int) -> list[int]:
+        """The classes of the shortest run to configuration `at`."""
+        classes = []
         while at > 0:
             at, c = self.parent[at]
             classes.append(c)
@@ -239,14 +243,7 @@ def lasso(search: Search, edges: Edges) -> tuple[list[int], int] | None:
     if best is None:
         return None
     _, entry, loop = best
-    return stem(search, entry) + loop, search.depth[entry]
-
-
-def stem(search: Search, at: int) -> list[int]:
-    """The classes of the shortest run to configuration `at`."""
-    if at == 0:
-        return []
-    return search.run_to(Target("", _never, search.parent[at]))
+    return search.stem(entry) + loop, search.depth[entry]
 
 
 def sustained(search: Search, edges: Edges, steps: int) -> list[int] | None:
@@ -257,7 +254,7 @@ def sustained(search: Search, edges: Edges, steps: int) -> list[int] | None:
     if not starts:
         return None
     at = min(starts, key=lambda s: (search.depth[s], s))
-    run = stem(search, at)
+    run = search.stem(at)
     for left in range(steps, 0, -1):
         at, c = next((to, c) for to, c in edges[at] if longest[to] >= left - 1)
         run.append(c)
@@ -269,29 +266,21 @@ def _longest(edges: Edges) -> list[float]:
     components in the order Tarjan's algorithm closes them, each after every component it reaches."""
     longest: list[float] = [0.0] * len(edges)
     for component in _components(edges):
-        looped = len(component) > 1 or any(to == component[0] for to, _ in edges[component[0]])
-        members = set(component)
+        looped, members = _looped(edges, component), set(component)
         for node in component:
             outside = [1 + longest[to] for to, _ in edges[node] if to not in members]
             longest[node] = float("inf") if looped else max(outside, default=0.0)
-        if not looped:
-            continue
-        for node in component:
-            longest[node] = float("inf")
     return longest
-
-
-def _never(before: Env, after: Env | None, fired: int, nxt: Config | None) -> bool:
-    return False
 
 
 def _cyclic(edges: Edges) -> set[int]:
     """The nodes that lie on a cycle."""
-    found: set[int] = set()
-    for component in _components(edges):
-        if len(component) > 1 or any(to == component[0] for to, _ in edges[component[0]]):
-            found.update(component)
-    return found
+    return {node for component in _components(edges) if _looped(edges, component) for node in component}
+
+
+def _looped(edges: Edges, component: list[int]) -> bool:
+    """Does a strongly connected component hold a cycle (more than one node, or a node with a step to itself)?"""
+    return len(component) > 1 or any(to == component[0] for to, _ in edges[component[0]])
 
 
 def _components(edges: Edges) -> list[list[int]]:

@@ -33,7 +33,7 @@ from mlca_verify.logic.explicit import (
 )
 from mlca_verify.logic.induction import Path
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
-from mlca_verify.logic.symbolic import Frame, System, python_value
+from mlca_verify.logic.symbolic import Frame, System, python_value, value_of
 from mlca_verify.model import Expr, Liveness, Machine, Var
 
 WITNESS_STEPS = 200_000  # steps a first search may take to find every witness before the symbolic engines try
@@ -141,7 +141,7 @@ class Finite:
         """The answer for a target of the main search (a built-in check or an invariant); with `deepen`, the
         search goes on to its whole budget first."""
         if self.base is None or name not in self.targets:
-            return Answer(why=self.reason or "not a target of the explicit engine")
+            return self.undecided()
         search, target = self.base, self.targets[name]
         if deepen and target.found is None and not search.complete:
             search.run(self.budget)
@@ -152,7 +152,7 @@ class Finite:
         holds and the goal does not, over every configuration (searched to the whole budget with `deepen`)."""
         counter = self.counters.get(live_id)
         if self.base is None or counter is None:
-            return Answer(why=self.reason or "not a target of the explicit engine")
+            return self.undecided()
         if deepen:
             self.base.run(self.budget)
         if not self.base.complete:
@@ -169,7 +169,7 @@ class Finite:
         """A response without a bound: a reachable loop of steps that keep `assume and not goal`."""
         restricted = self.unbounded.get(live_id)
         if self.base is None or restricted is None:
-            return Answer(why=self.reason or "not a target of the explicit engine")
+            return self.undecided()
         self.base.run(self.budget)
         if self.base.undecidable:
             return Answer(why=self.base.undecidable)
@@ -182,6 +182,10 @@ class Finite:
         if self.base.complete:
             return Answer(never=True)
         return Answer(why=self.incomplete(self.base))
+
+    def undecided(self) -> Answer:
+        """The answer for a target the engine does not hold (the machine, or the property, is not finite)."""
+        return Answer(why=self.reason or "not a target of the explicit engine")
 
     def incomplete(self, search: Search) -> str:
         return (
@@ -308,8 +312,7 @@ def _numeral(value: Value | None, kind: str) -> z3.ExprRef:
     """The z3 numeral of a value (made once: a long run pins the same few values again and again)."""
     if kind == "bool":
         return z3.BoolVal(bool(value))
-    q = Fraction(value)  # type: ignore[arg-type]
-    return z3.IntVal(int(q)) if kind == "int" else z3.Q(q.numerator, q.denominator)
+    return value_of(Fraction(value), kind)  # type: ignore[arg-type]
 
 
 def _answer(search: Search, target: Target) -> Answer:
