@@ -228,6 +228,33 @@ def test_mlca_t_runs_replay_exactly_on_the_data_explorer(mlca_t: tuple[Machine, 
     assert from_context >= 1  # the saturating counters are reached from a context
 
 
+def test_every_run_the_search_finds_passes_its_decision_state_on_the_data_explorer() -> None:
+    """The runs found for each pair, replayed on the independent explorer from the initial state, step from the
+    decision's state at their last step: the signals chosen to realize an abstracted definition at an earlier
+    step keep the step the search's model took (a chosen `speed` outside its range once sent a cruise control
+    to its fault mode, so no run ever stepped from ACTIVE, whose guards the suite claimed to pair)."""
+    m = load_spec(ROOT / "tests/machines/acc_modes_50hz.toml").machine
+    search = Search(Unrolling(m, 30))
+    ex = bruteforce_data.DataExplorer(m, enumerate_inputs=False)
+    checked: set[str] = set()
+    for o in objectives(m):
+        if o.decision.kind != "guard" or o.decision.state is None:
+            continue
+        pair = search.pair(o)
+        for found in (pair.a, pair.b):
+            assert found is not None, o.id
+            if found.start is not None:  # one step from a context in range (a hold counted past the depth)
+                continue
+            mode, variables = ex.initial()
+            for sample in found.inputs[:-1]:
+                move = ex.step(ex.defaults(), mode, variables, _exact_inputs(sample))
+                assert move is not None, o.id
+                mode, variables = move.mode, move.variables
+            assert mode == o.decision.state, o.id
+            checked.add(mode)
+    assert checked == set(m.states)
+
+
 def ev_prev(p: Prev, before: bruteforce_data.Point, registers: tuple[object, ...] | None, k: int) -> object:
     return bruteforce_data.ev(p.arg, before) if registers is None else registers[k]
 
@@ -496,3 +523,37 @@ def test_a_definition_is_read_where_the_short_circuit_reaches_it() -> None:
     read, checks = given["def:L"]  # L is read where a guard reaches it, its rule once its samples are valid
     assert StateIn(("MOVING_LEFT",)) in set(nodes(read)) and Var("U") in set(nodes(read))
     assert given["valid:L"] == (read,) and Var("v") in set(nodes(checks))
+
+
+ACC_C = """/* fast_enough: speed >= V_MIN (corpus) */
+/*@ requires \\valid_read(c);
+  @ assigns \\nothing;
+  @*/
+static bool accmodes_def_fast_enough(const accmodes_ctx_t *c, const accmodes_inputs_t *i, const accmodes_params_t *p)
+{
+    (void)c;
+    (void)i;
+    (void)p;
+    return ((((0.0 <= i->speed) && (i->speed <= 70.0))) ? (i->speed >= p->V_MIN) : false);
+}
+static int64_t accmodes_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
+static int64_t accmodes_max_i(int64_t r, int64_t a) { return (a > r) ? a : r; }
+"""
+
+
+def test_a_gap_in_a_definition_or_a_shared_helper_has_its_reason() -> None:
+    """A gap deep in a definition's function takes the reasons of that definition's conditions without a pair
+    (its validity gate is decided earlier in the chain); a saturation branch of the shared min helper names the
+    spec's calls of min; a helper the spec never calls gets no reason."""
+    from mlca_verify.testgen.explain import explain
+    from mlca_verify.testgen.measure import Gap
+
+    m = load_spec(ROOT / "tests/machines/acc_modes_50hz.toml").machine
+    valid = next(o for o in objectives(m) if o.id == "valid:fast_enough#1")
+    pairs = [Pair(valid, form="none", reason="no step in any state has it")]
+    gaps = [Gap(10, "branch at column 15 never false"), Gap(12, "branch never true"), Gap(13, "branch never true")]
+    reasons = explain(gaps, ACC_C, m, pairs, "c", depth=30)
+    assert reasons[0] == "0.0 <= speed in valid:fast_enough: no step in any state has it"
+    assert reasons[1].startswith("the shared min helper takes this branch only where one of the spec's min(...)")
+    assert "min(hold + 1, 1000)" in reasons[1] and "(at most 30 steps)" in reasons[1]
+    assert reasons[2] == ""

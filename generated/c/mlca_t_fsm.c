@@ -511,6 +511,7 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
         next.prev0 = mlca_t_reg0(&next, i, p);
         next.first = false;
     }
+    /*@ assert mlca_t_next(*c, *i, *p, fired, next); */ /* the witness of the existential in the contract */
     mlca_t_outputs(&next, i, p, o);
     *c = next;
 }

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from mlca_verify.model import Machine
+from mlca_verify.model import Call, Expr, Machine, nodes, show
 from mlca_verify.testgen.measure import Gap
 from mlca_verify.testgen.search import Pair
 
@@ -18,6 +18,8 @@ DIVISION = (
 _C_TAG = re.compile(r"/\* ([A-Za-z0-9_.-]+): ")
 _PY_TAG = re.compile(r"(?:# |\"\"\")([A-Za-z0-9_.-]+): ")
 _APPEND = re.compile(r"\.append\(\"([A-Za-z0-9_.-]+)\"\)")
+_DEFINITION = re.compile(r"_def_([A-Za-z0-9_]+)\(")
+_HELPER = re.compile(r"_(min|max)(?:_[a-z])?\(")
 LOOK_BACK = 3  # lines above a gap searched for the comment naming its element
 
 
@@ -35,15 +37,48 @@ def element_of(lines: Sequence[str], line: int, known: set[str]) -> str | None:
                 return match.group(1)
         if k < line - 1 and not text.strip().startswith(("#", "/*", "*")):
             break
+    name = _header_match(lines, line, _DEFINITION)
+    return name if name in known else None
+
+
+def _header_match(lines: Sequence[str], line: int, pattern: re.Pattern[str]) -> str | None:
+    """The first group of `pattern` in the header of the function holding the gap's line, if it matches."""
+    header = _header(lines, line)
+    match = pattern.search(header.split("(")[0] + "(") if header else None
+    return match.group(1) if match else None
+
+
+def _header(lines: Sequence[str], line: int) -> str | None:
+    for k in range(line - 1, -1, -1):
+        if lines[k].startswith(("def ", "static ", "bool ", "void ", "int ")):
+            return lines[k]
     return None
 
 
 def in_function(lines: Sequence[str], line: int, names: tuple[str, ...]) -> bool:
-    for k in range(line - 1, -1, -1):
-        text = lines[k]
-        if text.startswith(("def ", "static ", "bool ", "void ", "int ")):
-            return any(n in text.split("(")[0] for n in names)
-    return False
+    header = _header(lines, line)
+    return header is not None and any(n in header.split("(")[0] for n in names)
+
+
+def _expressions(machine: Machine) -> list[Expr]:
+    exprs: list[Expr] = [t.guard for t in machine.transitions]
+    exprs += [u.expr for t in machine.transitions for u in t.updates]
+    exprs += [v.every for v in machine.variables if v.every is not None]
+    exprs += [d.expr for d in machine.definitions] + [o.expr for o in machine.outputs]
+    return exprs
+
+
+def saturation(machine: Machine, fn: str, depth: int) -> str:
+    """Why a branch of the shared min or max helper is not taken: only a call of the spec's own that saturates
+    takes it, and no run of the suite makes one do so (a counter reaches its bound after more steps)."""
+    calls = sorted({show(n) for e in _expressions(machine) for n in nodes(e) if isinstance(n, Call) and n.fn == fn})
+    if not calls:
+        return ""
+    return (
+        f"the shared {fn} helper takes this branch only where one of the spec's {fn}(...) bounds its value "
+        f"({', '.join(calls)}), which no run of the suite (at most {depth} steps) does; a longer run may "
+        "(try --depth)"
+    )
 
 
 def reasons_for(element: str, pairs: Sequence[Pair], language: str, has_data: bool) -> list[str]:
@@ -62,7 +97,9 @@ def reasons_for(element: str, pairs: Sequence[Pair], language: str, has_data: bo
     return found
 
 
-def explain(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str) -> list[str]:
+def explain(
+    gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str, *, depth: int
+) -> list[str]:
     """A reason per gap ("" where none is known: a gap the suite should close)."""
     lines = source.splitlines()
     known = {t.id for t in machine.transitions} | {i.id for i in machine.invariants}
@@ -73,10 +110,15 @@ def explain(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[
         found = reasons_for(element, pairs, language, machine.has_data) if element else []
         if not found and in_function(lines, gap.line, ("_div",)):
             found = [DIVISION]
+        helper = None if found else _header_match(lines, gap.line, _HELPER)
+        if helper is not None:
+            found = [x for x in (saturation(machine, helper, depth),) if x]
         reasons.append(" | ".join(found))
     return reasons
 
 
-def fill(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str) -> None:
-    for gap, reason in zip(gaps, explain(gaps, source, machine, pairs, language), strict=True):
+def fill(
+    gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str, *, depth: int
+) -> None:
+    for gap, reason in zip(gaps, explain(gaps, source, machine, pairs, language, depth=depth), strict=True):
         gap.reason = reason

@@ -127,7 +127,7 @@ class Unrolling:
         self.solver.add(self.system.init(self.frames[0]))
         self.concrete_steps: set[int] = set()
         self.concrete_terms: dict[int, z3.BoolRef] = {}
-        self.realized: dict[tuple[bool, ...], Sample | None] = {}
+        self.realized: dict[tuple[bool | str, ...], Sample | None] = {}
         for _ in range(depth + 1):
             self._add_step()
 
@@ -195,28 +195,34 @@ class Unrolling:
         return values
 
     def realize(self, model: z3.ModelRef, j: int) -> Sample | None:
-        """Signals at step j that give each abstracted definition the value the model chose (with the step's
-        booleans as the model has them); the same choice is realized once for every step."""
+        """Signals at step j that give each abstracted definition the value the model chose, and with the step's
+        booleans as the model has them, take the spec's step from the model's context before it to its context
+        after it (so every other test of the signals comes out as the model has it); a choice met once is
+        reused."""
         chosen = [z3.is_true(model.eval(self.inputs[j].abstract[d], model_completion=True)) for d in self.abstracted]
         bools = [z3.is_true(model.eval(b, model_completion=True)) for b in self.inputs[j].bools.values()]
-        key = (*chosen, *bools)
+        around = [model.eval(t, model_completion=True) for t in (*self.frames[j].terms(), *self.frames[j + 1].terms())]
+        key = (*chosen, *bools, *(t.sexpr() for t in around))
         if key not in self.realized:
-            self.realized[key] = self._realize(j, chosen, bools)
+            self.realized[key] = self._realize(chosen, bools, around)
         return self.realized[key]
 
-    def _realize(self, j: int, chosen: list[bool], bools: list[bool]) -> Sample | None:
-        pre = self.terms[j].pre
+    def _realize(self, chosen: list[bool], bools: list[bool], around: list[z3.ExprRef]) -> Sample | None:
+        s = self.concrete
+        pre, i, post = s.frame("rz0"), s.inputs("rz0"), s.frame("rz1")
+        link, terms = s.step(pre, i, post)
         solver = z3.Solver()
         solver.set("timeout", 20_000)
+        solver.add(link, s.assumptions(pre, i), *signal_bounds(s, i))
+        solver.add(*[t == value for t, value in zip((*pre.terms(), *post.terms()), around, strict=True)])
         for d, value in zip(self.abstracted, chosen, strict=True):
-            solver.add(self.system.ev(self.def_exprs[d], pre) == value)
-        solver.add(*[b == value for b, value in zip(self.inputs[j].bools.values(), bools, strict=True)])
-        solver.add(*signal_bounds(self.system, self.inputs[j]))
-        solver.add(*margins(self.system, [self.def_exprs[d] for d in self.abstracted], pre))
+            solver.add(s.ev(self.def_exprs[d], terms.pre) == value)
+        solver.add(*[b == value for b, value in zip(i.bools.values(), bools, strict=True)])
+        solver.add(*margins(s, [self.def_exprs[d] for d in self.abstracted], terms.pre))
         if solver.check() != z3.sat:
             return None
         found = solver.model()
-        return {n: _number(found.eval(t, model_completion=True), self.m, n) for n, t in self.inputs[j].signals.items()}
+        return {n: _number(found.eval(t, model_completion=True), self.m, n) for n, t in i.signals.items()}
 
 
 def _anything(conditions: list[z3.BoolRef], outcome: z3.BoolRef) -> z3.BoolRef:
