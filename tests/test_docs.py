@@ -76,3 +76,13 @@ def test_readme_claims_table_is_the_reports() -> None:
 
     report = claims((COMPARISON / "report.md").read_text(encoding="utf-8"))
     assert report and claims((ROOT / "README.md").read_text(encoding="utf-8")) == report
+
+
+def test_readme_states_the_loaders_limits() -> None:
+    """The README's limits are the loader's own numbers (a limit raised in the code and not in the text fails)."""
+    from mlca_verify.spec.meaning import WITHIN_LIMIT
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert f"`within` is at most {WITHIN_LIMIT:,} steps" in text
+    assert f"must lie in 1..{WITHIN_LIMIT:,} steps" in text
+    assert "1,000 steps for" not in text and "at most 1,000 steps, and" not in text

@@ -22,7 +22,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "intervals cli_base",
         "spec logic",  # the loader and the engine: neither imports the other
         "diagram regress",
-        "report codegen",
+        "report waves codegen",
         "ci_formats targets",
         "conform emit",
         "testgen",

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mlca_verify import ci_formats, cli_base, report
+from mlca_verify import ci_formats, cli_base, report, waves
 from mlca_verify.cli_base import (
     DEPTH_LIMIT,
     EXIT_FINDING,
@@ -97,6 +97,9 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--sarif", metavar="FILE", help="also write SARIF 2.1.0: findings at their spec lines")
     check.add_argument("--emit-tests", metavar="DIR", help="write a pytest and a C test replaying each violation")
     check.add_argument("--smt2", metavar="DIR", help="write each lemma's query as SMT-LIB 2 (unsat: it holds)")
+    check.add_argument(
+        "--traces", metavar="DIR", help="write each counterexample as CSV and as VCD (a waveform, for GTKWave)"
+    )
     check.add_argument("--generated", default="generated", metavar="DIR", help="generated code the tests use")
     _allow_outside(check)
 
@@ -231,6 +234,8 @@ def cmd_check(args: argparse.Namespace) -> int:
         _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
     if args.smt2:
         _write_smt2(loaded, Path(args.smt2), args.parametric, args.timeout_ms)
+    if args.traces:
+        _write_traces(checked, Path(args.traces))
     if missing:
         say(f"{len(missing)} spec elements cite no source (--require-cites)")
     every_ok = all(r.ok for _, results in checked for r in results)
@@ -248,6 +253,27 @@ def _write_smt2(loaded: list[LoadedSpec], out: Path, parametric: bool, timeout_m
             say(f"wrote {terminal(str(out / name))}")
     except OSError as err:
         raise UsageError.at(out, f"cannot write SMT-LIB files: {err.strerror or err}") from None
+
+
+def _write_traces(checked: list[tuple[LoadedSpec, list[Result]]], out: Path) -> None:
+    taken: set[str] = set()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for spec, results in checked:
+            for r in results:
+                cx = r.counterexample
+                if cx is None or not cx.steps:
+                    continue
+                stem = waves.file_stem(spec.machine.name, r.prop, taken)
+                write_atomic(out / f"{stem}.csv", waves.trace_csv(cx))
+                files = [f"{stem}.csv"]
+                if not cx.point:
+                    title = f"{r.prop} ({r.verdict}) of {spec.machine.name}, {len(cx.steps)} steps"
+                    write_atomic(out / f"{stem}.vcd", waves.trace_vcd(spec.machine, cx, title, __version__))
+                    files.append(f"{stem}.vcd")
+                say(f"wrote {', '.join(terminal(str(out / f)) for f in files)}")
+    except OSError as err:
+        raise UsageError.at(out, f"cannot write traces: {err.strerror or err}") from None
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
