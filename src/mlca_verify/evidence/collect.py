@@ -338,9 +338,17 @@ def declared(ev: Evidence) -> list[Result]:
     return [r for r in ev.results if r.prop in ids and r.kind in ("invariant", "liveness")]
 
 
+def declared_parametric(ev: Evidence) -> list[Result]:
+    """The declared properties expected to hold that the spec claims for every param value in range
+    (`parametric = true`); the others are claimed, and proved, at the params' defaults."""
+    m = ev.spec.machine
+    ids = {p.id for p in m.invariants if p.parametric} | {p.id for p in m.liveness if p.parametric}
+    return [r for r in declared(ev) if r.prop in ids]
+
+
 def parametric_ok(ev: Evidence) -> bool:
-    """Every declared property of a machine with data expected to hold holds for every param value in range."""
-    return all(r.ok and r.proof is not None and r.proof.parametric for r in declared(ev))
+    """Every property declared parametric and expected to hold holds for every param value in range."""
+    return all(r.ok and r.proof is not None and r.proof.parametric for r in declared_parametric(ev))
 
 
 # --- traceability -----------------------------------------------------------------------------------------
@@ -545,14 +553,7 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
     def node(nid: str, kind: str, text: str, parent: str | None, ok: bool | None = None, *, link: str = "") -> None:
         nodes.append({"id": nid, "type": kind, "text": text, "parent": parent, "ok": ok, "link": link or None})
 
-    node(
-        "G1",
-        "goal",
-        f"The generated controller for {m.name} ({ev.spec.path}) meets its specified properties, for every param "
-        "value in range, under its environment assumptions",
-        None,
-        ev.ok,
-    )
+    node("G1", "goal", _top_claim(ev), None, ev.ok)
     node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
     node(
         "S1",
@@ -565,32 +566,7 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
         text = f"{a.id}: {show(a.expr)} at every step ({a.doc})" + (f", source: {a.cite}" if a.cite else "")
         node(f"A{k}", "assumption", text, "S1", link=f"#assume-{anchor(a.id)}")
     proofs_goal(node, ev.results, with_how=True)
-    props = declared(ev)
-    what = "every param value in its range" if m.params else "every run (the machine has no params)"
-    node(
-        "G3",
-        "goal",
-        f"The declared properties hold for {what}: parametric proofs",
-        "S1",
-        parametric_ok(ev),
-    )
-    for k, r in enumerate(props, 1):
-        if r.proof is not None and r.proof.parametric:
-            node(
-                f"Sn3.{k}",
-                "solution",
-                f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {_how(r)}",
-                "G3",
-                r.ok,
-                link=f"#proof-{anchor(r.prop)}",
-            )
-        else:
-            node(
-                f"G3.{k}",
-                "undeveloped",
-                f"{r.prop} holds for {what} (its proof is not parametric: declare it with parametric = true)",
-                "G3",
-            )
+    _parametric_goal(node, ev)
     code_goals(node, ev.outcomes, DATA_CHECKS, 4)
     loop_goal(node, ev.loop, 7, "no closed-loop results given")
     if ev.physics:
@@ -598,6 +574,38 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
     if ev.coverage:
         coverage.coverage_goal(node, ev.coverage, 9 if ev.physics else 8)
     return nodes
+
+
+def _top_claim(ev: Evidence) -> str:
+    m = ev.spec.machine
+    at = "for every param value in range"
+    if m.params and len(declared_parametric(ev)) < len(declared(ev)):
+        at = "at the params' defaults (and for every param value in range, the properties declared parametric)"
+    who = f"The generated controller for {m.name} ({ev.spec.path})"
+    return f"{who} meets its specified properties, {at}, under its environment assumptions"
+
+
+def _parametric_goal(node: Callable[..., None], ev: Evidence) -> None:
+    """G3: the properties declared parametric hold for every param value in range, each by its proof; where
+    none is declared so, a context saying what G2's proofs claim instead."""
+    m = ev.spec.machine
+    props = declared_parametric(ev)
+    if m.params and not props:
+        text = (
+            "No declared property is declared parametric: each is claimed and proved at the params' defaults "
+            "(G2); declare it with parametric = true to claim it for every param value in range"
+        )
+        node("G3", "context", text, "S1")
+        return
+    what = "every param value in its range" if m.params else "every run (the machine has no params)"
+    node(
+        "G3", "goal", f"The properties declared parametric hold for {what}: parametric proofs", "S1", parametric_ok(ev)
+    )
+    for k, r in enumerate(props, 1):
+        proved = r.proof is not None and r.proof.parametric
+        how = _how(r) if proved else "its proof is not parametric (unknown or decided only at the defaults)"
+        text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {how}"
+        node(f"Sn3.{k}", "solution", text, "G3", r.ok and proved, link=f"#proof-{anchor(r.prop)}")
 
 
 def physics_ok(section: dict[str, Any]) -> bool:
