@@ -397,6 +397,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
     unknown = [n for n in names if n not in CHECKS]
     if unknown:
         raise UsageError(f"error: --only names unknown checks: {', '.join(unknown)} (known: {', '.join(CHECKS)})")
+    names = [n for n in CHECKS if n in names]  # a set, run in the order the checks build on each other
     specs = [load_spec(p, compare=False) for p in args.specs]
     results = []
     for spec in specs:

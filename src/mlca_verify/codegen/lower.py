@@ -133,6 +133,8 @@ class Lowering:
         if isinstance(e, Ite):
             kind = self.type_of(e)
             cond, a, b = self.go(e.cond, prevs), self.as_type(e.then, kind, prevs), self.as_type(e.other, kind, prevs)
+            if c and kind == "int":  # both sides int64_t: no int32_t field meets an int64_t (MISRA C:2012 10.8)
+                a, b = self.widened(e.then, a), self.widened(e.other, b)
             return f"({cond} ? {a} : {b})" if c else f"({a} if {cond} else {b})"
         if isinstance(e, Cmp):
             both: Type | None = "real" if "real" in (self.type_of(e.left), self.type_of(e.right)) else None
@@ -156,6 +158,11 @@ class Lowering:
                 return real_literal(e.value)
             return f"((double){text})" if self.lang == "c" else f"float({text})"
         return text
+
+    def widened(self, e: Expr, text: str) -> str:
+        """A bare read of an int field (a variable, a param, a signal, a register: stored as int32_t where its
+        range allows) as an int64_t, the type every int expression computes in."""
+        return f"((int64_t){text})" if isinstance(e, (Var, Prev)) else text
 
     def call(self, e: Call, prevs: Mapping[Prev, str] | None) -> str:
         c = self.lang == "c"
