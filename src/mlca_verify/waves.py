@@ -35,26 +35,17 @@ def file_stem(machine: str, prop: str, taken: set[str]) -> str:
     return unique
 
 
+_GROUPS = (("in", "inputs"), ("signal", "signals"), ("def", "definitions"), ("var", "variables"), ("out", "outputs"))
+_FIELD = dict(_GROUPS)  # a group's Step attribute
+
+
 def _groups(cx: Counterexample) -> list[tuple[str, list[str]]]:
-    first = cx.steps[0]
-    return [
-        ("in", list(first.inputs)),
-        ("signal", list(first.signals)),
-        ("def", list(first.definitions)),
-        ("var", list(first.variables)),
-        ("out", list(first.outputs)),
-    ]
+    return [(group, list(getattr(cx.steps[0], field))) for group, field in _GROUPS]
 
 
 def _value(step: Step, group: str, name: str) -> Number:
-    table: dict[str, Mapping[str, Number]] = {
-        "in": step.inputs,
-        "signal": step.signals,
-        "def": step.definitions,
-        "var": step.variables,
-        "out": step.outputs,
-    }
-    return table[group][name]
+    table: Mapping[str, Number] = getattr(step, _FIELD[group])
+    return table[name]
 
 
 def _cell(value: Number) -> str:
