@@ -15,6 +15,7 @@ decides them as the exact arithmetic of the spec does.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
@@ -207,22 +208,41 @@ class Unrolling:
             self.realized[key] = self._realize(chosen, bools, around)
         return self.realized[key]
 
-    def _realize(self, chosen: list[bool], bools: list[bool], around: list[z3.ExprRef]) -> Sample | None:
+    @functools.cached_property
+    def _one_step(self) -> _OneStep:
+        """The spec's concrete step between two fresh frames, within its assumptions and the signals' bounds,
+        built once and asserted into each realization's own solver."""
         s = self.concrete
         pre, i, post = s.frame("rz0"), s.inputs("rz0"), s.frame("rz1")
         link, terms = s.step(pre, i, post)
+        rules = [self.def_exprs[d] for d in self.abstracted]
+        base = [link, s.assumptions(pre, i), *signal_bounds(s, i), *margins(s, rules, terms.pre)]
+        return _OneStep(base, [*pre.terms(), *post.terms()], i, [s.ev(r, terms.pre) for r in rules])
+
+    def _realize(self, chosen: list[bool], bools: list[bool], around: list[z3.ExprRef]) -> Sample | None:
+        one = self._one_step
         solver = z3.Solver()
         solver.set("timeout", 20_000)
-        solver.add(link, s.assumptions(pre, i), *signal_bounds(s, i))
-        solver.add(*[t == value for t, value in zip((*pre.terms(), *post.terms()), around, strict=True)])
-        for d, value in zip(self.abstracted, chosen, strict=True):
-            solver.add(s.ev(self.def_exprs[d], terms.pre) == value)
-        solver.add(*[b == value for b, value in zip(i.bools.values(), bools, strict=True)])
-        solver.add(*margins(s, [self.def_exprs[d] for d in self.abstracted], terms.pre))
+        solver.add(*one.base)
+        solver.add(*[t == value for t, value in zip(one.frames, around, strict=True)])
+        solver.add(*[t == value for t, value in zip(one.definitions, chosen, strict=True)])
+        solver.add(*[b == value for b, value in zip(one.inputs.bools.values(), bools, strict=True)])
         if solver.check() != z3.sat:
             return None
         found = solver.model()
-        return {n: _number(found.eval(t, model_completion=True), self.m, n) for n, t in i.signals.items()}
+        return {n: _number(found.eval(t, model_completion=True), self.m, n) for n, t in one.inputs.signals.items()}
+
+
+@dataclass(frozen=True)
+class _OneStep:
+    """One concrete step: its constraints (the margins of the definitions' comparisons among them), the terms of
+    the frames before and after it, its inputs, and the abstracted definitions' rules as terms of the frame before
+    it."""
+
+    base: list[z3.BoolRef]
+    frames: list[z3.ExprRef]
+    inputs: StepInputs
+    definitions: list[z3.ExprRef]
 
 
 def _anything(conditions: list[z3.BoolRef], outcome: z3.BoolRef) -> z3.BoolRef:
