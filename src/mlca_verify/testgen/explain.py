@@ -8,6 +8,7 @@ import re
 from collections.abc import Sequence
 
 from mlca_verify.model import Call, Expr, Machine, nodes, show
+from mlca_verify.testgen.coupling import coupling_reason
 from mlca_verify.testgen.measure import Gap
 from mlca_verify.testgen.search import Pair
 
@@ -113,6 +114,8 @@ def explain(
         helper = None if found else _header_match(lines, gap.line, _HELPER)
         if helper is not None:
             found = [x for x in (saturation(machine, helper, depth),) if x]
+        if not found and element and gap.condition is not None:
+            found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
         reasons.append(" | ".join(found))
     return reasons
 

@@ -42,6 +42,7 @@ class Gap:
     line: int
     what: str
     reason: str = ""  # why the suite cannot close it ("" where no reason is known)
+    condition: tuple[int, int] | None = None  # an MC/DC gap's condition (from 0) and its decision's conditions
 
 
 @dataclass
@@ -183,7 +184,9 @@ def _c_figures(doc: dict[str, Any], source: Path, passed: bool, notes: list[str]
             side = "true" if b[4] == 0 else "false"
             cov.gaps.append(Gap(b[0], f"branch at column {b[1]} never {side}"))
     for record in entry.get("mcdc_records", []):
-        for k, covered in enumerate(record[-1] if isinstance(record[-1], list) else []):
+        flags = record[-1] if isinstance(record[-1], list) else []
+        for k, covered in enumerate(flags):
             if not covered:
-                cov.gaps.append(Gap(record[0], f"MC/DC condition {k + 1} of the decision at column {record[1]}"))
+                what = f"MC/DC condition {k + 1} of the decision at column {record[1]}"
+                cov.gaps.append(Gap(record[0], what, condition=(k, len(flags))))
     return cov
