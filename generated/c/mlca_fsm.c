@@ -190,8 +190,8 @@ mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in)
             } else { /* otherwise: stay (Alg. 1, l.1-2) */
                 next = MLCA_MOVING_RIGHT;
             }
-        } else { /* out of range: back to the initial state */
-            next = MLCA_INITIAL;
+        } else { /* out of range: to the fallback state */
+            next = MLCA_FALLBACK;
         }
     }
     return next;

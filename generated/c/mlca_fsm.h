@@ -17,6 +17,7 @@ typedef enum {
 } mlca_state_t;
 
 #define MLCA_INITIAL MLCA_IDLE
+#define MLCA_FALLBACK MLCA_IDLE /* where a state value that names no state goes: the spec's fallback */
 
 typedef struct {
     bool N; /* a lane change is needed (navigation signal; prose: 'Need to Move') (Alg. 1 Require; Sec. III-B) */
@@ -30,7 +31,7 @@ typedef struct {
  * The contracts state it (requires mlca_inputs_bool); a caller built with -fsanitize=bool reports a
  * breach, as `mlca-verify conform` shows (check sanitizers). */
 
-/* The state after one step from s under in; an out-of-range s goes to MLCA_INITIAL. */
+/* The state after one step from s under in; an out-of-range s goes to MLCA_FALLBACK. */
 mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in);
 
 /* True when s is one of the machine's states. */

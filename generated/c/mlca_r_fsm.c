@@ -206,8 +206,8 @@ mlca_r_state_t mlca_r_step(mlca_r_state_t s, mlca_r_inputs_t in)
             } else { /* otherwise: stay (Alg. 1, l.1-2 (repaired at l.16-18)) */
                 next = MLCA_R_MOVING_RIGHT;
             }
-        } else { /* out of range: back to the initial state */
-            next = MLCA_R_INITIAL;
+        } else { /* out of range: to the fallback state */
+            next = MLCA_R_FALLBACK;
         }
     }
     return next;

@@ -17,6 +17,7 @@ typedef enum {
 } mlca_r_state_t;
 
 #define MLCA_R_INITIAL MLCA_R_IDLE
+#define MLCA_R_FALLBACK MLCA_R_IDLE /* where a state value that names no state goes: the spec's fallback */
 
 typedef struct {
     bool N; /* a lane change is needed (Alg. 1 Require; Sec. III-B 'N (Need to Move)') */
@@ -30,7 +31,7 @@ typedef struct {
  * The contracts state it (requires mlca_r_inputs_bool); a caller built with -fsanitize=bool reports a
  * breach, as `mlca-verify conform` shows (check sanitizers). */
 
-/* The state after one step from s under in; an out-of-range s goes to MLCA_R_INITIAL. */
+/* The state after one step from s under in; an out-of-range s goes to MLCA_R_FALLBACK. */
 mlca_r_state_t mlca_r_step(mlca_r_state_t s, mlca_r_inputs_t in);
 
 /* True when s is one of the machine's states. */

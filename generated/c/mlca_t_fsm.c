@@ -147,10 +147,15 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @   logic mlca_t_params_t mlca_t_any_params;
   @ }
   @*/
-/* mlca_t_next(c, i, p, k, n): n is the context after transition k fires in c (-1: the reset of a context whose
- * mode is not a state, whatever the inputs and params) */
+/* mlca_t_fresh(n): n's variables at their initial values, its registers at 0 and its first-step flag set, as
+ * mlca_t_init leaves a context and the step restarts one whose mode is not a state */
+/*@ predicate mlca_t_fresh(mlca_t_ctx_t n) =
+  @   n.waited == 0 && n.need_age == 0 && n.prev0 == 0 && n.first == 1;
+  @*/
+/* mlca_t_next(c, i, p, k, n): n is the context after transition k fires in c (-1: the restart, in the fallback
+ * mode, of a context whose mode is not a state, whatever the inputs and params) */
 /*@ predicate mlca_t_next(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k, mlca_t_ctx_t n) =
-  @   k < 0 ? (n.mode == MLCA_T_INITIAL && n.waited == 0 && n.need_age == 0 && n.prev0 == 0 && n.first == 1)
+  @   k < 0 ? (n.mode == MLCA_T_FALLBACK && mlca_t_fresh(n))
   @   : (n.mode == (k == 1 ? MLCA_T_IDLE : k == 2 ? MLCA_T_MOVING_LEFT : k == 3 ? MLCA_T_MOVING_RIGHT : k == 4 ? MLCA_T_WAITING : k == 5 ? MLCA_T_MOVING_LEFT : k == 6 ? MLCA_T_MOVING_RIGHT : k == 7 ? MLCA_T_IDLE : k == 8 ? MLCA_T_IDLE : c.mode)
   @     && n.waited == (k == 1 ? 0 : k == 4 ? 1 : ((1000 < (c.waited + 1)) ? 1000 : (c.waited + 1)))
   @     && n.need_age == (((i.N != 0) ? ((1000 < (c.need_age + 1)) ? 1000 : (c.need_age + 1)) : 0))
@@ -254,12 +259,11 @@ static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, cons
 
 /*@ requires \valid(c);
   @ assigns *c;
-  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL;
-  @ ensures mlca_t_next(\old(*c), mlca_t_any_inputs, mlca_t_any_params, -1, *c);
+  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == mode && mlca_t_fresh(*c);
   @*/
-static void mlca_t_reset(mlca_t_ctx_t *c)
+static void mlca_t_reset(mlca_t_ctx_t *c, mlca_t_state_t mode)
 {
-    c->mode = MLCA_T_INITIAL;
+    c->mode = mode;
     c->waited = 0;
     c->need_age = 0;
     c->prev0 = 0;
@@ -268,12 +272,11 @@ static void mlca_t_reset(mlca_t_ctx_t *c)
 
 /*@ requires \valid(c);
   @ assigns *c;
-  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL;
-  @ ensures mlca_t_next(\old(*c), mlca_t_any_inputs, mlca_t_any_params, -1, *c);
+  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_INITIAL && mlca_t_fresh(*c);
   @*/
 void mlca_t_init(mlca_t_ctx_t *c)
 {
-    mlca_t_reset(c);
+    mlca_t_reset(c, MLCA_T_INITIAL);
 }
 
 /* The first enabled transition of each mode, by its number in the spec (0: none), in a function of its own with
@@ -479,7 +482,7 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
     const int fired = mlca_t_fired(c, i, p);
     mlca_t_ctx_t next = *c;
     if (fired < 0) {
-        mlca_t_reset(&next);
+        mlca_t_reset(&next, MLCA_T_FALLBACK); /* the mode is not a state: restart in the fallback mode */
     } else {
         if (fired == 1) { /* reset */
             next.mode = MLCA_T_IDLE;

@@ -21,6 +21,7 @@ typedef enum {
 } mlca_t_state_t;
 
 #define MLCA_T_INITIAL MLCA_T_IDLE
+#define MLCA_T_FALLBACK MLCA_T_IDLE /* the mode a context whose mode names no state restarts in */
 #define MLCA_T_INVARIANTS 9
 #define MLCA_T_FAILING 10 /* the monitor's array: one per invariant, and a last one that stays false */
 

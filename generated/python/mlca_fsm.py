@@ -26,6 +26,7 @@ class State(IntEnum):
 
 
 INITIAL = State.IDLE
+FALLBACK = State.IDLE  # where a state value that names no state goes: the spec's fallback
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,7 @@ class Inputs:
 
 
 def step(state: State, inputs: Inputs) -> State:
-    """The state after one step from `state` under `inputs`; an out-of-range state goes to INITIAL."""
+    """The state after one step from `state` under `inputs`; an out-of-range state goes to FALLBACK."""
     # reset: not N (Alg. 1, l.4-7), in every state
     if not inputs.N:
         return State.IDLE
@@ -73,7 +74,7 @@ def step(state: State, inputs: Inputs) -> State:
         if not inputs.R:
             return State.IDLE
         return State.MOVING_RIGHT  # otherwise: stay (Alg. 1, l.1-2)
-    return INITIAL  # out of range: back to the initial state
+    return FALLBACK  # out of range: to the fallback state
 
 
 def state_valid(state: int) -> bool:

@@ -29,6 +29,7 @@ class State(IntEnum):
 
 
 INITIAL = State.IDLE
+FALLBACK = State.IDLE  # the mode a context whose mode names no state restarts in
 INVARIANTS = ("A1", "A2", "A3", "A4", "deferral", "urgent-first-safe-step", "command-only-when-moving", "fail-safe-left", "fail-safe-right",)
 
 
@@ -212,7 +213,7 @@ def step(c: Context, i: Inputs, p: Params = DEFAULT_PARAMS) -> Outputs:
     """One step: `c` moves on under `i` and `p`; the outputs are returned."""
     fired = _fired(c, i, p)
     if fired < 0:
-        nxt = Context()
+        nxt = Context(mode=FALLBACK)
     else:
         nxt = Context(**vars(c))
         nxt.mode = _TARGETS.get(fired, c.mode)

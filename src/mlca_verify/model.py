@@ -482,6 +482,13 @@ class Machine:
     step_s: Fraction | None = None
     lemmas: tuple[Lemma, ...] = ()
     data: bool = False  # declared data, or uses an expression a machine without data cannot (arithmetic, prev)
+    fallback: str = ""  # the state a context whose mode names no state restarts in ("": the initial state)
+
+    @property
+    def fallback_state(self) -> str:
+        """The state the generated code restarts a corrupted context in (its mode names no state): the spec's
+        `fallback`, or the initial state."""
+        return self.fallback or self.initial
 
     @property
     def input_names(self) -> tuple[str, ...]:

@@ -163,6 +163,7 @@ class DataIR:
     spec_sha256: str
     generator: str
     initial: str
+    fallback: str  # the mode a context whose mode names no state restarts in
     states: tuple[str, ...]
     inputs: tuple[Field, ...]
     signals: tuple[Field, ...]
@@ -270,6 +271,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         spec_sha256=sha,
         generator=generator,
         initial=m.initial,
+        fallback=m.fallback_state,
         states=m.states,
         inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
         signals=tuple(number_field(s, s.type, s.range) for s in m.signals),

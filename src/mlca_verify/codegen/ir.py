@@ -61,11 +61,12 @@ class MachineIR:
     spec_sha256: str
     generator: str
     initial: str
+    fallback: str  # the state a state value that names no state goes to
     states: tuple[str, ...]
     inputs: tuple[InputIR, ...]
     cases: tuple[StateCase, ...]
-    # how many leading branches every state shares (`from = "*"` transitions to the initial state): the code
-    # tests them once, before the switch; out-of-range states still end in the initial state
+    # how many leading branches every state shares (`from = "*"` transitions to the fallback state): the code
+    # tests them once, before the switch; out-of-range states still end in the fallback state
     hoisted: int
     step_reads_inputs: bool  # C needs `(void)in;` where no condition reads an input
     invariants_read_inputs: bool
@@ -97,7 +98,7 @@ def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, r
     module = machine.name.lower()
     hoisted = 0
     for t in machine.transitions:
-        if t.sources is not None or t.target != machine.initial:
+        if t.sources is not None or t.target != machine.fallback_state:
             break
         hoisted += 1
     return MachineIR(
@@ -110,6 +111,7 @@ def build_ir(machine: Machine, spec_path: str, spec_sha256: str, version: str, r
         spec_sha256=spec_sha256,
         generator=f"{GENERATOR_NAME} {version}",
         initial=machine.initial,
+        fallback=machine.fallback_state,
         states=machine.states,
         inputs=tuple(InputIR(i.name, i.doc, i.cite) for i in machine.inputs),
         cases=tuple(cases),

@@ -180,6 +180,7 @@ def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
 
 DATA_TEMPLATES = {"python": "data_python.py.j2", "c-header": "data_c.h.j2", "c-source": "data_c.c.j2"}
 CERTIFIED_TEMPLATE = "data_certified.c.j2"  # the proof file `conform` writes: invariants with their certificates
+DATA_SHARED = ("data_acsl.j2",)  # macros the data templates import
 
 
 def render_data(ir: DataIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:

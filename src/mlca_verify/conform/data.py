@@ -299,15 +299,17 @@ def run_harness(exe: Path, rows: Sequence[Row], columns: Columns) -> list[Row]:
 
 
 def exhaustive(t: DataTarget) -> CheckOutcome:
-    """The boundary set: Python and C bit for bit, and both as z3's semantics of the spec says."""
+    """The boundary set: Python and C bit for bit, and both as z3's semantics of the spec says; from a mode that
+    names no state, both restart in the fallback mode with the initial values."""
     if t.py is None or t.harness is None:
         return CheckOutcome("exhaustive", False, "not run: the code did not compile")
     columns, z3_step = Columns(t.ir), Semantics(t.machine)
     rows = list(boundary_rows(t.ir))
-    c_rows = run_harness(t.harness, rows, columns)
+    restarts = restart_rows(t.ir, rows)
+    c_rows = run_harness(t.harness, [*rows, *restarts], columns)
     keep = 1 + len(t.ir.variables)
     outputs = slice(keep + len(t.ir.registers) + 1, keep + len(t.ir.registers) + 1 + len(t.ir.outputs))
-    for row, c_after in zip(rows, c_rows, strict=True):
+    for row, c_after in zip(rows, c_rows[: len(rows)], strict=True):
         py_after = columns.python_step(t.py, row)
         if not all(_same(a, b) for a, b in zip(py_after, c_after, strict=True)):
             return CheckOutcome("exhaustive", False, f"Python and C differ from {row}: {py_after} vs {c_after}")
@@ -318,12 +320,42 @@ def exhaustive(t: DataTarget) -> CheckOutcome:
             return CheckOutcome(
                 "exhaustive", False, f"the code and the spec (z3) differ from {row}: {ours} vs {theirs}"
             )
+    failed = _restart_failure(t.py, columns, restarts, c_rows[len(rows) :])
+    if failed:
+        return CheckOutcome("exhaustive", False, failed)
     detail = (
         f"{len(rows)} steps (every mode, boolean combination and first-step flag; each signal at its range ends, "
         "just outside, the middle, ±0, NaN, ±infinity and a subnormal; each variable at 0, its limits and its "
-        "initial value): Python and C agree bit for bit, and both agree with z3's semantics of the spec"
+        "initial value): Python and C agree bit for bit, and both agree with z3's semantics of the spec; "
+        f"{len(restarts)} steps from a mode that names no state: both restart in {t.ir.fallback} with the initial "
+        "values"
     )
-    return CheckOutcome("exhaustive", True, detail, data={"steps": len(rows)})
+    return CheckOutcome("exhaustive", True, detail, data={"steps": len(rows), "restarts": len(restarts)})
+
+
+def restart_rows(ir: DataIR, rows: Sequence[Row]) -> list[Row]:
+    """The boundary rows of the first mode after the first step, each with a mode that names no state instead (a
+    context corrupted during a run)."""
+    first = 1 + len(ir.variables) + len(ir.registers)
+    return [(len(ir.states), *row[1:]) for row in rows if row[0] == 0 and row[first] == 0]
+
+
+def restarted(ir: DataIR) -> Row:
+    """The mode, variables, registers and first-step flag a corrupted context restarts with, as the spec says."""
+    initial = [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
+    return (ir.states.index(ir.fallback), *initial, *[0] * len(ir.registers), 1)
+
+
+def _restart_failure(py: ModuleType, columns: Columns, rows: Sequence[Row], c_rows: Sequence[Row]) -> str | None:
+    expected = restarted(columns.ir)
+    for row, c_after in zip(rows, c_rows, strict=True):
+        py_after = columns.python_step(py, row)
+        if not all(_same(a, b) for a, b in zip(py_after, c_after, strict=True)):
+            return f"Python and C differ from {row}: {py_after} vs {c_after}"
+        got = c_after[: len(expected)]
+        if not all(_close(a, b) for a, b in zip(got, expected, strict=True)):
+            return f"from {row} (a mode that names no state) the code restarted as {got}, not as {expected}"
+    return None
 
 
 def _close(a: object, b: object) -> bool:

@@ -16,9 +16,9 @@ class Reference:
         self.enc = Encoding(machine, self.solver)
 
     def next_state(self, state: str | None, inputs: dict[str, bool]) -> str:
-        """The next state; an out-of-range state (None) goes to the initial state, as the code contract says."""
+        """The next state; an out-of-range state (None) goes to the fallback state, as the code contract says."""
         if state is None:
-            return self.machine.initial
+            return self.machine.fallback_state
         point = self.solver.point(inputs)
         fired = [m.target for m in self.enc.moves[state] if self.solver.check(z3.And(point, m.cond)) == "sat"]
         if len(fired) != 1:

@@ -23,7 +23,7 @@ from typing import Any
 import z3
 
 from mlca_verify.codegen import data_ir, machine_ir
-from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
+from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, DATA_SHARED, DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.conform.data import DATA_CHECKS
@@ -186,7 +186,9 @@ def _files(paths: list[Path]) -> list[dict[str, str]]:
 def inputs(ev: Evidence) -> list[dict[str, str]]:
     specs = [Path(ev.spec.path), *(Path(r.path) for r in ev.readings)]
     specs += [Path(c.other.loc.file) for c in ev.spec.machine.comparisons]
-    names = [*DATA_TEMPLATES.values(), CERTIFIED_TEMPLATE] if ev.spec.machine.has_data else TEMPLATES.values()
+    names = (
+        [*DATA_TEMPLATES.values(), CERTIFIED_TEMPLATE, *DATA_SHARED] if ev.spec.machine.has_data else TEMPLATES.values()
+    )
     templates = [TEMPLATE_DIR / name for name in names]
     return _files([p for p in specs if p.is_file()]) + [
         {"path": f"templates/{p.name}", "sha256": sha256(p)} for p in sorted(templates)

@@ -131,11 +131,12 @@ class MeaningChecker:
         for state, loc in state_locs:
             self.identifier(("machine", "states"), state, "state name", loc)
         self.distinct(("machine", "states"), state_locs, "state")
-        if m["initial"] not in self.states:
-            raise self.fail(
-                ("machine", "initial"),
-                f"initial state {_quoted(m['initial'])} is not a state ({', '.join(self.states)})",
-            )
+        for key in ("initial", "fallback"):
+            if key in m and m[key] not in self.states:
+                raise self.fail(
+                    ("machine", key),
+                    f"{key} state {_quoted(m[key])} is not a state ({', '.join(self.states)})",
+                )
         inputs = self.inputs()
         b = self.builder
         params, signals = b.params(), b.signals()
@@ -163,6 +164,7 @@ class MeaningChecker:
         return Machine(
             name=m["name"],
             initial=m["initial"],
+            fallback=m.get("fallback", m["initial"]),
             states=self.states,
             inputs=inputs,
             transitions=transitions,

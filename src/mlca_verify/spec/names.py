@@ -40,8 +40,9 @@ ACSL_WORDS = frozenset(
 EXPR_WORDS = frozenset(
     {"and", "or", "not", "true", "false", "state", "in", "if", "then", "else", "prev", "min", "max", "abs", "valid"}
 )
-# The generated header defines <MACHINE>_<STATE> for every state, <MACHINE>_INITIAL and the guard <MACHINE>_FSM_H.
-GENERATED_STATE_SUFFIXES = frozenset({"INITIAL", "FSM_H"})
+# The generated header defines <MACHINE>_<STATE> for every state, <MACHINE>_INITIAL, <MACHINE>_FALLBACK, the
+# guard <MACHINE>_FSM_H, and for a machine with data <MACHINE>_INVARIANTS and <MACHINE>_FAILING.
+GENERATED_STATE_SUFFIXES = frozenset({"INITIAL", "FALLBACK", "FSM_H", "INVARIANTS", "FAILING"})
 # Public attributes of the classes that hold states (an IntEnum) and inputs (a dataclass) in generated Python, on
 # every Python the project supports (3.11 to 3.13; a test checks the list against the running one).
 PYTHON_ATTRIBUTES = frozenset(
@@ -85,7 +86,11 @@ def clash(name: str, role: str, machine: str = "") -> str | None:
     if role in ("state", "input") and name in PYTHON_ATTRIBUTES:
         holder = "the generated State enum (an IntEnum)" if role == "state" else "the generated Inputs class"
         return f"clashes with an attribute of {holder}"
-    if role == "input" and machine and name in {f"{machine.upper()}_{suffix}" for suffix in GENERATED_STATE_SUFFIXES}:
+    if (
+        role not in ("state", "machine")
+        and machine
+        and name in {f"{machine.upper()}_{s}" for s in GENERATED_STATE_SUFFIXES}
+    ):
         return f"clashes with the macro {name} of the generated C header"
     if role == "variable" and (name in CONTEXT_MEMBERS or _REGISTER.fullmatch(name)):
         return f"clashes with the member '{name}' that the generated context holds for itself; rename the variable"

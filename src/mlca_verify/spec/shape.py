@@ -21,6 +21,7 @@ class Field:
 MACHINE = {
     "name": Field("str", True),
     "initial": Field("str", True),
+    "fallback": Field("str"),
     "states": Field("list-of-str", True),
     "semantics": Field("str"),
     "otherwise": Field("str"),
