@@ -200,26 +200,41 @@ def _escaped(text: str) -> str:
     return str(escape(text))
 
 
+def _build_apart(spec: str, out: Path, extra: list[str], epoch: str) -> None:
+    """The evidence of `spec` built by a process of its own, as a reproducible build runs it."""
+    command = [sys.executable, "-m", "mlca_verify", "evidence", spec, "--out", str(out), *extra]
+    env = {**os.environ, "SOURCE_DATE_EPOCH": epoch}
+    done = subprocess.run(command, check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
 @pytest.fixture(scope="module")
-def data_bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """The evidence of a machine with data, built twice at two different times, each by its own process (as a
-    reproducible build runs it)."""
+def data_bundle(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The evidence of MLCA-T, a machine with data, with the SUMO replays of its lemmas' counterexamples."""
     out = tmp_path_factory.mktemp("evidence-data")
     checked, replayed = out / "check.json", out / "replay.json"
     assert main(["check", MLCA_T, "--quiet", "--json", str(checked)]) == 0
     assert sim_main(["replay", str(checked), "--json", str(replayed)]) == 0
+    _build_apart(MLCA_T, out / "a", ["--replay", str(replayed)], "1764000000")
+    return out / "a"
+
+
+@pytest.fixture(scope="module")
+def corpus_bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The evidence of a corpus machine with data (proofs, every conform check, the generated suite and its
+    coverage) built twice, at two different times, each by its own process."""
+    out = tmp_path_factory.mktemp("evidence-corpus")
+    spec = "tests/machines/thermostat_1hz.toml"
+    generated = out / "generated"
+    assert main(["gen", "--out", str(generated), spec]) == 0
     for name, epoch in (("a", "1764000000"), ("b", "1764003600")):
-        command = [sys.executable, "-m", "mlca_verify", "evidence", MLCA_T, "--out", str(out / name)]
-        command += ["--replay", str(replayed)]
-        env = {**os.environ, "SOURCE_DATE_EPOCH": epoch}
-        done = subprocess.run(command, check=False, cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
-        assert done.returncode == 0, done.stdout + done.stderr
+        _build_apart(spec, out / name, ["--generated", str(generated)], epoch)
     return out / "a", out / "b"
 
 
-def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles: tuple[Path, Path]) -> None:
+def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundle: Path) -> None:
     m = load_spec(ROOT / MLCA_T).machine
-    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+    doc = json.loads((data_bundle / "evidence.json").read_text())
     schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
     jsonschema.validate(doc, schema, format_checker=jsonschema.FormatChecker())
     assert doc["ok"] is True and doc["spec"]["machine"] == m.name
@@ -260,7 +275,7 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
     assumptions = [n for n in doc["argument"] if n["type"] == "assumption"]
     assert [n["text"].split(":")[0] for n in assumptions] == [a.id for a in m.assumptions]
     assert [n["link"] for n in assumptions] == [f"#assume-{a.id}" for a in m.assumptions]
-    html = (data_bundles[0] / "index.html").read_text()
+    html = (data_bundle / "index.html").read_text()
     assert all(f'id="assume-{a.id}"' in html for a in m.assumptions) and 'id="param-T_MIN"' in html
     assert "confirmed by a separate query" in html
     for prop in declared:  # the certificate itself, escaped as all text is
@@ -268,8 +283,33 @@ def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundles:
     assert ">pass<" in html and 'id="check-frama-c-wp"' in html and ">FAIL<" not in html
 
 
-def test_data_machine_bundle_packages_its_generated_code(data_bundles: tuple[Path, Path]) -> None:
-    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+def test_the_data_bundle_holds_every_check_of_mlca_t_passed(data_bundle: Path) -> None:
+    """`conform` of MLCA-T with every check, as the evidence runs it: the exhaustive boundary set, WP of the
+    mode logic against each mode's behaviours and of the whole step against the spec's relation, and the
+    invariants proved on the step with their certificates."""
+    doc = json.loads((data_bundle / "evidence.json").read_text())
+    by_name = {c["name"]: c for c in doc["conformance"]}
+    assert all(c["ok"] for c in by_name.values()), [c["detail"] for c in by_name.values() if not c["ok"]]
+    assert by_name["exhaustive"]["data"]["steps"] > 10_000 and by_name["exhaustive"]["data"]["restarts"] > 1_000
+    assert by_name["cortex-m4"]["data"]["data"] == 0 and by_name["cortex-m4"]["data"]["bss"] == 0
+    wp = by_name["frama-c-wp"]["data"]
+    assert wp["proved"] == wp["goals"] > 250
+    names = {g["goal"] for g in wp["goal_list"]}
+    assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in names
+    assert "typed_mlca_t_fired_WAITING_complete" in " ".join(names)
+    assert {"typed_mlca_t_step_ensures_3", "typed_mlca_t_step_ensures_4"} <= names
+    assert wp["binary64"] == ["mlca_t_shape2: ensures"]  # the gap rule's one C function over reals
+    # the spec's invariants on the step, each with its certificate; the two that compare samples are left out
+    certified = wp["certified"]
+    assert certified["proved"] == certified["goals"] > 0
+    assert set(certified["stated"]) == {
+        "A1", "A2", "A3", "A4", "deferral", "urgent-first-safe-step", "command-only-when-moving"
+    }  # fmt: skip
+    assert [x.split(":")[0] for x in certified["left"]] == ["fail-safe-left", "fail-safe-right"]
+
+
+def test_data_machine_bundle_packages_its_generated_code(data_bundle: Path) -> None:
+    doc = json.loads((data_bundle / "evidence.json").read_text())
     # the generated code: every conformance check of a machine with data, the files, the lines of each element
     assert [c["name"] for c in doc["conformance"]] == ["up-to-date", *DATA_CHECKS] and all(
         c["ok"] for c in doc["conformance"]
@@ -287,9 +327,9 @@ def test_data_machine_bundle_packages_its_generated_code(data_bundles: tuple[Pat
     assert nodes["G7"]["type"] == "undeveloped" and "no closed-loop results given" in nodes["G7"]["text"]
 
 
-def test_data_machine_bundle_has_the_physical_safety_section(data_bundles: tuple[Path, Path]) -> None:
+def test_data_machine_bundle_has_the_physical_safety_section(data_bundle: Path) -> None:
     m = load_spec(ROOT / MLCA_T).machine
-    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+    doc = json.loads((data_bundle / "evidence.json").read_text())
     section = doc["physical_safety"]
     lemmas = {x["id"]: x for x in section["lemmas"]}
     assert list(lemmas) == [x.id for x in m.lemmas]
@@ -300,7 +340,7 @@ def test_data_machine_bundle_has_the_physical_safety_section(data_bundles: tuple
         "time-gap-rule-is-rss-safe-on-the-highway": ("violated", True),
     }
     for x in lemmas.values():  # each query is in the bundle, as hashed
-        query = (data_bundles[0] / x["smt2"]).read_bytes()
+        query = (data_bundle / x["smt2"]).read_bytes()
         assert hashlib.sha256(query).hexdigest() == x["smt2_sha256"] and b"(check-sat)" in query
     assert lemmas["L-is-rss-safe"]["params"] == ["ACCEL_MAX", "BRAKE_MAX", "BRAKE_MIN", "MIN_GAP", "RHO"]
     check = section["ad_rss_lib"]
@@ -322,7 +362,7 @@ def test_data_machine_bundle_has_the_physical_safety_section(data_bundles: tuple
     assert any(text.startswith("invariant A3 ") and "ties the states to L" in text for text in backing)
     contexts = [n["text"] for n in doc["argument"] if n["parent"] == "G8" and n["type"] == "context"]
     assert contexts[1].endswith("replayed in SUMO: unsafe (expected unsafe)")
-    html = (data_bundles[0] / "index.html").read_text()
+    html = (data_bundle / "index.html").read_text()
     assert 'id="physical-safety"' in html and 'href="smt2/mlca_t_L_is_rss_safe.smt2"' in html
 
 
@@ -365,27 +405,27 @@ def test_a_bad_replay_file_is_refused_before_the_proofs(
     assert not (tmp_path / "out" / "evidence.json").exists()
 
 
-def test_data_machine_bundle_carries_its_tests_and_their_coverage(data_bundles: tuple[Path, Path]) -> None:
-    doc = json.loads((data_bundles[0] / "evidence.json").read_text())
+def test_data_machine_bundle_carries_its_tests_and_their_coverage(data_bundle: Path) -> None:
+    doc = json.loads((data_bundle / "evidence.json").read_text())
     tc = doc["test_coverage"]
     assert tc["status"] == "ok" and tc["folder"] == "tests/mlca_t" and tc["target"]["agrees"]
     assert {"test_mlca_t_mcdc.py", "mlca_t_mcdc.c", "objectives.json", "cobertura-c.xml"} <= set(tc["files"])
-    assert all((data_bundles[0] / tc["folder"] / name).is_file() for name in tc["files"])
-    assert not (data_bundles[0] / tc["folder"] / "build").exists()
+    assert all((data_bundle / tc["folder"] / name).is_file() for name in tc["files"])
+    assert not (data_bundle / tc["folder"] / "build").exists()
     c = next(x for x in tc["coverage"] if x["language"] == "c")
     assert c["mcdc"]["percent"] == 100.0 and all(g["reason"] for g in c["gaps"])
     goal = next(n for n in doc["argument"] if n["text"] == GOAL)
     assert goal["ok"] is True and goal["parent"] == "S1"
     solutions = [n for n in doc["argument"] if n["parent"] == goal["id"].replace("G", "S")]
     assert len(solutions) == 4 and all(n["ok"] for n in solutions)  # the suite, Python, C, the target
-    page = (data_bundles[0] / "index.html").read_text()
+    page = (data_bundle / "index.html").read_text()
     assert 'id="coverage"' in page and "every one as on the host" in page
 
 
-def test_data_machine_bundles_differ_only_in_the_timestamp(data_bundles: tuple[Path, Path]) -> None:
+def test_data_machine_bundles_differ_only_in_the_timestamp(corpus_bundles: tuple[Path, Path]) -> None:
     for name in ("evidence.json", "index.html"):
-        a = (data_bundles[0] / name).read_text().splitlines()
-        b = (data_bundles[1] / name).read_text().splitlines()
+        a = (corpus_bundles[0] / name).read_text().splitlines()
+        b = (corpus_bundles[1] / name).read_text().splitlines()
         changed = [
             line
             for line in difflib.unified_diff(a, b, lineterm="", n=0)
@@ -396,8 +436,8 @@ def test_data_machine_bundles_differ_only_in_the_timestamp(data_bundles: tuple[P
 
 
 @pytest.mark.slow
-def test_data_machine_page_loads_in_chromium_and_every_link_resolves(data_bundles: tuple[Path, Path]) -> None:
-    page_url = (data_bundles[0] / "index.html").as_uri()
+def test_data_machine_page_loads_in_chromium_and_every_link_resolves(data_bundle: Path) -> None:
+    page_url = (data_bundle / "index.html").as_uri()
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS)
         page = browser.new_page()
