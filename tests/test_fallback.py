@@ -149,3 +149,13 @@ def test_a_restart_in_the_initial_state_is_caught(tmp_path: Path, planted: str) 
         assert exhaustive.detail.endswith(
             "no state) the code restarted as (0, 0, 0, 0, 0, 0, 1), not as (5, 0, 0, 0, 0, 0, 1)"
         )
+
+
+def test_diff_names_a_changed_fallback(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    old, new = tmp_path / "old.toml", tmp_path / "new.toml"
+    old.write_text(DOOR.replace('fallback = "LOCKED"\n', ""), encoding="utf-8")
+    new.write_text(DOOR, encoding="utf-8")
+    assert main(["diff", str(old), str(new)]) == 0
+    assert "fallback: a context whose state names no state now restarts in LOCKED (was SHUT)" in capsys.readouterr().out
+    assert main(["diff", str(new), str(new)]) == 0
+    assert "fallback:" not in capsys.readouterr().out

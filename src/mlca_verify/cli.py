@@ -294,6 +294,9 @@ def cmd_diff(args: argparse.Namespace) -> int:
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
     say(report.regression_text(changes, transition_changes(old.machine, new.machine)))
+    was, now = old.machine.fallback_state, new.machine.fallback_state
+    if was != now:  # the generated code's answer to a corrupted context: no verdict speaks of it
+        say(f"fallback: a context whose state names no state now restarts in {now} (was {was})\n")
     meaning = property_changes(old.machine, new.machine, args.timeout_ms)
     say(report.meaning_text(meaning))
     if old.machine.has_data or new.machine.has_data:
