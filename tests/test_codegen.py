@@ -102,7 +102,9 @@ def test_template_edit_is_drift(tmp_path: Path) -> None:
     templates = tmp_path / "codegen"
     shutil.copytree(TEMPLATE_DIR, templates)
     py = templates / "python_fsm.py.j2"
-    py.write_text(py.read_text().replace("out of range: back to the initial state", "out of range", 1))
+    text = py.read_text()
+    assert "out of range: to the fallback state" in text
+    py.write_text(text.replace("out of range: to the fallback state", "out of range", 1))
     files = generate(load_spec("spec/mlca.toml", compare=False), GENERATED, templates)
     assert [d.path for d in drift(files, GENERATED) if d.path in files] == ["python/mlca_fsm.py"]
 

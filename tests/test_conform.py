@@ -101,7 +101,7 @@ def _conform_with_templates(templates: Path, tmp_path: Path, checks: list[str]) 
         ("c_fsm.c.j2", "    next = {{ M }}_{{ b.target }};\n{% endfor %}\n{% if branches %}",
          "    next = {{ M }}_{{ b.target if not loop.last else m.initial }};\n{% endfor %}\n{% if branches %}", "exhaustive"),
         ("python_fsm.py.j2", "            return State.{{ b.target }}", "            return State.{{ case.state }}", "exhaustive"),
-        ("c_fsm.c.j2", "next = {{ M }}_INITIAL;", "next = {{ M }}_{{ m.states[-1] }};", "exhaustive"),
+        ("c_fsm.c.j2", "next = {{ M }}_FALLBACK;", "next = {{ M }}_{{ m.states[-1] }};", "exhaustive"),
     ],
     ids=["C: last branch of each state to the initial state", "Python: every branch stays", "C: out-of-range to the wrong state"],
 )  # fmt: skip
@@ -121,7 +121,7 @@ def test_template_bug_in_c_fails_the_proof_too(tmp_path: Path) -> None:
     templates = tmp_path / "codegen"
     shutil.copytree(TEMPLATE_DIR, templates)
     path = templates / "c_fsm.c.j2"
-    path.write_text(path.read_text().replace("next = {{ M }}_INITIAL;", "next = {{ M }}_{{ m.states[-1] }};"))
+    path.write_text(path.read_text().replace("next = {{ M }}_FALLBACK;", "next = {{ M }}_{{ m.states[-1] }};"))
     outcomes = _conform_with_templates(templates, tmp_path, ["frama-c-wp"])
     assert not outcomes["frama-c-wp"].ok
     assert any("out_of_range" in g for g in outcomes["frama-c-wp"].data["unproved"])

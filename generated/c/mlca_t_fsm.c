@@ -259,11 +259,12 @@ static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, cons
 
 /*@ requires \valid(c);
   @ assigns *c;
-  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == mode && mlca_t_fresh(*c);
+  @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && c->mode == MLCA_T_FALLBACK;
+  @ ensures mlca_t_next(\old(*c), mlca_t_any_inputs, mlca_t_any_params, -1, *c);
   @*/
-static void mlca_t_reset(mlca_t_ctx_t *c, mlca_t_state_t mode)
+static void mlca_t_restart(mlca_t_ctx_t *c)
 {
-    c->mode = mode;
+    c->mode = MLCA_T_FALLBACK;
     c->waited = 0;
     c->need_age = 0;
     c->prev0 = 0;
@@ -276,7 +277,8 @@ static void mlca_t_reset(mlca_t_ctx_t *c, mlca_t_state_t mode)
   @*/
 void mlca_t_init(mlca_t_ctx_t *c)
 {
-    mlca_t_reset(c, MLCA_T_INITIAL);
+    mlca_t_restart(c);
+    c->mode = MLCA_T_INITIAL;
 }
 
 /* The first enabled transition of each mode, by its number in the spec (0: none), in a function of its own with
@@ -482,7 +484,7 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
     const int fired = mlca_t_fired(c, i, p);
     mlca_t_ctx_t next = *c;
     if (fired < 0) {
-        mlca_t_reset(&next, MLCA_T_FALLBACK); /* the mode is not a state: restart in the fallback mode */
+        mlca_t_restart(&next); /* the mode is not a state: restart in the fallback mode */
     } else {
         if (fired == 1) { /* reset */
             next.mode = MLCA_T_IDLE;
