@@ -233,6 +233,8 @@ CPPCHECK = (
     "--quiet",
     "--suppress=missingIncludeSystem",
     "--suppress=unusedFunction",
+    "--suppress=misra-c2012-2.5:*.h",  # the header's macros are the library's API (INITIAL: for the caller)
+    "--suppress=unmatchedSuppression",  # where every macro of the header is used
     "--addon=misra",
 )
 
@@ -253,7 +255,10 @@ def cppcheck_file(c_file: Path, build: Path) -> CheckOutcome:
     if ran.returncode != 0 or findings:
         first = findings[0] if findings else ran.output.strip()
         return CheckOutcome("cppcheck", False, f"{len(findings)} findings; first: {first}", data={"findings": findings})
-    detail = "cppcheck --enable=all --inconclusive --addon=misra: no findings (unusedFunction suppressed: a library)"
+    detail = (
+        "cppcheck --enable=all --inconclusive --addon=misra: no findings (a library: unusedFunction suppressed, and "
+        "MISRA 2.5, unused macros, in the header, whose macros are the API)"
+    )
     return CheckOutcome("cppcheck", True, detail, data={"findings": []})
 
 
