@@ -222,3 +222,19 @@ def test_the_checks_asked_run_in_the_order_they_build_on_each_other(
     assert main([*args, str(ROOT / spec)]) == 0
     rows = [line.split()[0] for line in capsys.readouterr().out.splitlines() if line.startswith("  ")]
     assert rows == ["up-to-date", "compile", "exhaustive", "sequences"]
+
+
+def test_inputs_outside_0_1_are_reported_when_only_a_later_state_reads_them(tmp_path: Path) -> None:
+    """The initial state reads no input; the sanitizer check once stepped from it alone and saw nothing."""
+    spec = tmp_path / "late.toml"
+    spec.write_text(
+        '[machine]\nname = "Late"\ninitial = "S1"\nstates = ["S0", "S1"]\n[inputs]\ni0 = { doc = "i0" }\n'
+        '[[transition]]\nfrom = "S0"\nto = "S1"\nwhen = "i0"\n',
+        encoding="utf-8",
+    )
+    out = tmp_path / "generated"
+    loaded = load_spec(spec)
+    write(generate(loaded, out), out)
+    outcomes = conform(loaded, out, ["compile", "sanitizers"], quiet).outcomes
+    sanitizers = next(o for o in outcomes if o.name == "sanitizers")
+    assert sanitizers.ok and sanitizers.detail.endswith("inputs outside 0/1 reported"), sanitizers.detail
