@@ -149,7 +149,7 @@ def boundary_rows(ir: DataIR) -> Iterator[Row]:
     """Every mode and boolean combination, each signal through its boundary values (the others in the middle),
     and each variable at 0, its limits and its initial value (the others initial)."""
     mids: list[float | int] = [_mid(f) for f in ir.signals]
-    initial: list[float | int] = [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
+    initial = _initial(ir)
     contexts = [initial]
     for k in range(len(ir.variables)):
         contexts += [[*initial[:k], x, *initial[k + 1 :]] for x in variable_values(ir, k)]
@@ -165,6 +165,11 @@ def boundary_rows(ir: DataIR) -> Iterator[Row]:
                 for ctx in contexts:
                     for signals in signal_sets:
                         yield (mode, *ctx, *registers, first, *bits, *signals)
+
+
+def _initial(ir: DataIR) -> list[float | int]:
+    """Each variable's initial value."""
+    return [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
 
 
 def variable_values(ir: DataIR, k: int) -> list[float | int]:
@@ -310,9 +315,9 @@ def exhaustive(t: DataTarget) -> CheckOutcome:
     keep = 1 + len(t.ir.variables)
     outputs = slice(keep + len(t.ir.registers) + 1, keep + len(t.ir.registers) + 1 + len(t.ir.outputs))
     for row, c_after in zip(rows, c_rows[: len(rows)], strict=True):
-        py_after = columns.python_step(t.py, row)
-        if not all(_same(a, b) for a, b in zip(py_after, c_after, strict=True)):
-            return CheckOutcome("exhaustive", False, f"Python and C differ from {row}: {py_after} vs {c_after}")
+        differ = _languages_differ(t.py, columns, row, c_after)
+        if differ:
+            return CheckOutcome("exhaustive", False, differ)
         mode, variables, outs = z3_step.step(row)
         ours = (c_after[0], *c_after[1:keep], *c_after[outputs])
         theirs = (mode, *variables, *outs)
@@ -342,16 +347,23 @@ def restart_rows(ir: DataIR, rows: Sequence[Row]) -> list[Row]:
 
 def restarted(ir: DataIR) -> Row:
     """The mode, variables, registers and first-step flag a corrupted context restarts with, as the spec says."""
-    initial = [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
-    return (ir.states.index(ir.fallback), *initial, *[0] * len(ir.registers), 1)
+    return (ir.states.index(ir.fallback), *_initial(ir), *[0] * len(ir.registers), 1)
+
+
+def _languages_differ(py: ModuleType, columns: Columns, row: Row, c_after: Row) -> str | None:
+    """How the Python step from `row` differs from the C one, bit for bit (None: it does not)."""
+    py_after = columns.python_step(py, row)
+    if all(_same(a, b) for a, b in zip(py_after, c_after, strict=True)):
+        return None
+    return f"Python and C differ from {row}: {py_after} vs {c_after}"
 
 
 def _restart_failure(py: ModuleType, columns: Columns, rows: Sequence[Row], c_rows: Sequence[Row]) -> str | None:
     expected = restarted(columns.ir)
     for row, c_after in zip(rows, c_rows, strict=True):
-        py_after = columns.python_step(py, row)
-        if not all(_same(a, b) for a, b in zip(py_after, c_after, strict=True)):
-            return f"Python and C differ from {row}: {py_after} vs {c_after}"
+        differ = _languages_differ(py, columns, row, c_after)
+        if differ:
+            return differ
         got = c_after[: len(expected)]
         if not all(_close(a, b) for a, b in zip(got, expected, strict=True)):
             return f"from {row} (a mode that names no state) the code restarted as {got}, not as {expected}"

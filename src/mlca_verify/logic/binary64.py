@@ -31,7 +31,7 @@ from fractions import Fraction
 import z3
 
 from mlca_verify.intervals import Interval, enclose, machine_intervals
-from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of, value_of
+from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of, value_of, variable_bounds
 from mlca_verify.model import (
     Arith,
     Call,
@@ -272,11 +272,7 @@ def _apart(machine: Machine, cmp: Cmp, margin: Fraction, parametric: bool) -> bo
     variables = {v.name: z3.Const(own(f"var:{v.name}"), sort_of(v.type)) for v in machine.variables}
     solver = z3.Solver()
     solver.set("rlimit", RLIMIT)
-    for v in machine.variables:
-        if v.range is not None:
-            solver.add(
-                variables[v.name] >= value_of(v.range[0], v.type), variables[v.name] <= value_of(v.range[1], v.type)
-            )
+    solver.add(*variable_bounds(machine, variables))
     params: dict[str, z3.ExprRef] = {}
     for p in machine.params:
         if parametric and p.range is not None:

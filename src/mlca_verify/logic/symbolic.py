@@ -133,6 +133,16 @@ class StepTerms:
     post: Valuation
 
 
+def variable_bounds(machine: Machine, variables: Mapping[str, z3.ExprRef]) -> list[z3.BoolRef]:
+    """Each variable with a declared range within it (the range checks prove that of every reachable context)."""
+    bounds: list[z3.BoolRef] = []
+    for v in machine.variables:
+        if v.range is not None:
+            term = variables[v.name]
+            bounds += [term >= value_of(v.range[0], v.type), term <= value_of(v.range[1], v.type)]
+    return bounds
+
+
 class System:
     """The transition system of `machine` for one query: the `prev()` nodes and monitors it needs, the
     definitions it abstracts, and whether params are fixed to their defaults or free within their ranges."""

@@ -6,44 +6,17 @@ and `floor == 2` in one decision) can have the first and not the second; z3 tell
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import cast
 
 import z3
 
-from mlca_verify.logic.symbolic import System, value_of
-from mlca_verify.model import BinOp, Const, Expr, Machine, Not, Var, nodes, show
-from mlca_verify.testgen.objectives import atoms, validity
+from mlca_verify.logic.symbolic import System, variable_bounds
+from mlca_verify.model import Expr, Machine, Var, nodes, show
+from mlca_verify.testgen.objectives import atoms, definition_decisions, guard_decisions
+from mlca_verify.testgen.reads import condition_paths
 
 BUDGET = 5_000_000  # z3's resources per query, so that the answer does not depend on the machine's load
-_JOIN: dict[str, Callable[[z3.BoolRef, z3.BoolRef], z3.BoolRef]] = {
-    "and": z3.And,
-    "or": z3.Or,
-    "->": z3.Implies,
-    "<->": lambda x, y: x == y,
-}
-_GATE: dict[str, Callable[[z3.BoolRef], z3.BoolRef]] = {
-    "and": lambda a: a,
-    "->": lambda a: a,
-    "or": z3.Not,
-    "<->": lambda a: z3.BoolVal(True),
-}
-
-
-def _walk(expr: Expr, values: list[z3.BoolRef], k: int, along: z3.BoolRef) -> tuple[z3.BoolRef, list[z3.BoolRef], int]:
-    """The outcome of `expr` given its conditions' values from index k on, when the code evaluates each of its
-    conditions (C's short circuits), and the index after its last condition."""
-    if isinstance(expr, Not):
-        outcome, evaluated, k = _walk(expr.arg, values, k, along)
-        return z3.Not(outcome), evaluated, k
-    if isinstance(expr, BinOp):
-        left, on_left, k = _walk(expr.left, values, k, along)
-        right, on_right, k = _walk(expr.right, values, k, z3.And(along, _GATE[expr.op](left)))
-        return _JOIN[expr.op](left, right), on_left + on_right, k
-    if isinstance(expr, Const):
-        return z3.BoolVal(expr.value), [], k
-    return values[k], [along], k + 1
 
 
 @dataclass(frozen=True)
@@ -58,18 +31,14 @@ class _Execution:
 
 
 def _execution(system: System, expr: Expr, tag: str) -> _Execution:
-    """An evaluation of `expr` in a context whose variables are in their ranges (the range checks prove that of
-    every reachable one), at the params' defaults (where the suite runs)."""
+    """An evaluation of `expr` in a context whose variables are in their ranges, at the params' defaults (where
+    the suite runs)."""
     frame = system.frame(tag)
     at = system.valuation(frame, system.inputs(tag))
-    facts = [system.well_formed(frame)]
-    for v in system.m.variables:
-        if v.range is not None:
-            term = frame.variables[v.name]
-            facts += [term >= value_of(v.range[0], v.type), term <= value_of(v.range[1], v.type)]
+    facts = [system.well_formed(frame), *variable_bounds(system.m, frame.variables)]
     values = [cast(z3.BoolRef, system.ev(a, at)) for a in atoms(expr)]
-    outcome, evaluated, _ = _walk(expr, values, 0, z3.BoolVal(True))
-    return _Execution(facts, outcome, values, evaluated)
+    evaluated = [z3.And(True, *[system.ev(g, at) for g in path]) for path in condition_paths(expr)]
+    return _Execution(facts, cast(z3.BoolRef, system.ev(expr, at)), values, evaluated)
 
 
 def unique_cause_impossible(machine: Machine, expr: Expr, k: int) -> bool:
@@ -109,10 +78,6 @@ def coupling_reason(machine: Machine, element: str, k: int, conditions: int) -> 
 
 
 def _decisions(machine: Machine, element: str) -> list[Expr]:
-    found: list[Expr] = []
-    for d in machine.definitions:
-        if d.name == element and d.type == "bool":
-            checks = validity(machine, d.signals)
-            found += [d.expr, *([checks] if checks is not None else [])]
-    found += [t.guard for t in machine.transitions if t.id == element]
-    return found
+    """The decisions of a definition (its samples' range checks and its rule) or of a transition's guard."""
+    found = (*definition_decisions(machine), *guard_decisions(machine))
+    return [d.expr for d in found if d.id.split(":")[-1] == element]

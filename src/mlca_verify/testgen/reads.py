@@ -6,7 +6,7 @@ expression over the step, from the spec alone."""
 from __future__ import annotations
 
 from mlca_verify.codegen.simplify import conjoin
-from mlca_verify.model import BinOp, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
+from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
 
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
 
@@ -19,12 +19,28 @@ def paths(expr: Expr, name: str, along: Path = ()) -> list[Path]:
     if isinstance(expr, Prev):
         return []  # a register: the value of an earlier step, not a read now
     if isinstance(expr, BinOp):
-        right = {"and": (expr.left,), "or": (Not(expr.left),), "->": (expr.left,), "<->": ()}[expr.op]
-        return paths(expr.left, name, along) + paths(expr.right, name, along + right)
+        return paths(expr.left, name, along) + paths(expr.right, name, along + _right_gate(expr))
     if isinstance(expr, Ite):
         found = paths(expr.cond, name, along)
         return found + paths(expr.then, name, (*along, expr.cond)) + paths(expr.other, name, (*along, Not(expr.cond)))
     return [p for child in children(expr) for p in paths(child, name, along)]
+
+
+def _right_gate(expr: BinOp) -> Path:
+    """What must hold for the code to evaluate the right side of `expr` (the short circuits of C and Python)."""
+    return {"and": (expr.left,), "or": (Not(expr.left),), "->": (expr.left,), "<->": ()}[expr.op]
+
+
+def condition_paths(expr: Expr, along: Path = ()) -> list[Path]:
+    """For each condition of a decision (the atom occurrences, left to right, as `objectives.atoms` lists them),
+    what must hold for the code to evaluate it."""
+    if isinstance(expr, Not):
+        return condition_paths(expr.arg, along)
+    if isinstance(expr, BinOp):
+        return condition_paths(expr.left, along) + condition_paths(expr.right, along + _right_gate(expr))
+    if isinstance(expr, Const):
+        return []
+    return [along]
 
 
 def _any(parts: list[Expr]) -> Expr:
