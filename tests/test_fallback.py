@@ -4,13 +4,21 @@ checks and the generated test suites all restart there, with the rest of the con
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
+import jsonschema
 import pytest
 
 from mlca_verify.cli import main
 from mlca_verify.conform import conform
+from mlca_verify.conform.checks import CheckOutcome
+from mlca_verify.conform.data import DATA_CHECKS
+from mlca_verify.diagram import FORMATS, render
 from mlca_verify.errors import SpecError
+from mlca_verify.evidence.collect import Evidence, document
+from mlca_verify.evidence.page import render_page
+from mlca_verify.logic import check_all
 from mlca_verify.spec import load_spec, load_text
 from mlca_verify.targets import import_generated
 from tests.conftest import ROOT
@@ -159,3 +167,33 @@ def test_diff_names_a_changed_fallback(tmp_path: Path, capsys: pytest.CaptureFix
     assert "fallback: a context whose state names no state now restarts in LOCKED (was SHUT)" in capsys.readouterr().out
     assert main(["diff", str(new), str(new)]) == 0
     assert "fallback:" not in capsys.readouterr().out
+
+
+def test_the_diagrams_mark_the_fallback_and_say_nothing_of_a_default_one() -> None:
+    door = load_text(DOOR, "door.toml")
+    said = "a corrupted state restarts in LOCKED"
+    assert said in render(door, "dot") and '  LOCKED [xlabel="fallback"];' in render(door, "dot")
+    assert "    note right of LOCKED: fallback, a corrupted state restarts here" in render(door, "mermaid")
+    assert said in render(door, "scxml")
+    plain = load_text(DOOR.replace('fallback = "LOCKED"\n', ""), "door.toml")
+    assert all("fallback" not in render(plain, fmt) and "restarts" not in render(plain, fmt) for fmt in FORMATS)
+
+
+def test_the_evidence_names_the_states_the_initial_one_and_the_fallback(tmp_path: Path) -> None:
+    path = ROOT / "tests" / "machines" / "crossing_10hz.toml"
+    assert main(["gen", "--out", str(tmp_path), str(path)]) == 0
+    spec = load_spec(path)
+    passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *DATA_CHECKS)]
+    loop = {"status": "undeveloped", "detail": "no closed-loop runs"}
+    doc = document(Evidence(spec, check_all(spec.machine), passed, tmp_path, [], "now", loop=loop))
+    schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
+    jsonschema.validate(doc["spec"], schema["properties"]["spec"])
+    assert doc["spec"]["states"] == list(spec.machine.states) and doc["spec"]["initial"] == "CARS_GREEN"
+    assert doc["spec"]["fallback"] == "ALL_RED_OUT" and 'ALL_RED_OUT [xlabel="fallback"]' in doc["spec"]["dot"]
+    page = render_page(doc)
+    assert (
+        "It starts in <code>CARS_GREEN</code>; generated code restarts a context whose state names no state "
+        "(a corrupted context) in\n<code>ALL_RED_OUT</code> (the spec&#39;s fallback)." in page
+    )
+    drawn = page[page.index('<div class="drawn">') :]
+    assert drawn.startswith('<div class="drawn"><svg') and ">fallback</text>" in drawn[: drawn.index("</svg>")]

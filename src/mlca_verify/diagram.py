@@ -2,7 +2,9 @@
 
 Transitions are drawn in priority order; under first-match semantics each label starts with its priority.
 `from = "*"` transitions are drawn from every state. `otherwise = "stay"` is not drawn (no edge: the state
-is kept); under `otherwise = "undefined"` the same absence is a gap, which the caption says.
+is kept); under `otherwise = "undefined"` the same absence is a gap, which the caption says. A spec's fallback
+state (where generated code restarts a corrupted context), when it is not the initial state, is said in the
+caption and marked on its state ("fallback").
 
 Spec text in a DOT string (the caption's cite, an edge's label and tooltip) is clipped to DOT_TEXT_LIMIT
 characters, ending in "...": Graphviz refuses a quoted string longer than 16,384 bytes.
@@ -42,7 +44,18 @@ def caption(m: Machine) -> str:
     )
     rest = "no enabled edge: the state is kept" if m.otherwise == "stay" else "no enabled edge: undefined (a gap)"
     cited = f" ({m.cite})" if m.cite else ""
-    return f"{m.name}{cited}: {order}; {rest}"
+    return f"{m.name}{cited}: {order}; {rest}{_fallback_note(m)}"
+
+
+def _fallback_note(m: Machine) -> str:
+    """The spec's fallback state, said only when it is not the initial state (the default)."""
+    if m.fallback_state == m.initial:
+        return ""
+    return f"; a corrupted state restarts in {m.fallback_state}"
+
+
+def _dot_node_mark(m: Machine, state: str) -> str:
+    return ' [xlabel="fallback"]' if _fallback_note(m) and state == m.fallback_state else ""
 
 
 def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> str:
@@ -55,7 +68,7 @@ def to_dot(m: Machine, highlight: frozenset[tuple[str, str]] = frozenset()) -> s
         '  __start [shape=point, label=""];',
         f"  __start -> {m.initial};",
     ]
-    lines += [f"  {s};" for s in m.states]
+    lines += [f"  {s}{_dot_node_mark(m, s)};" for s in m.states]
     for state, priority, t in _edges(m):
         label = _dot_str(f"{clip(_label(m, priority, t), DOT_TEXT_LIMIT - len(t.id) - 3)}\n[{t.id}]")
         mark = ", color=red, fontcolor=red, penwidth=2" if (state, t.id) in highlight else ""
@@ -81,6 +94,8 @@ def to_mermaid(m: Machine) -> str:
     for state, priority, t in _edges(m):
         label = _label(m, priority, t).replace("<->", "iff").replace("->", "implies").replace(":", " ")
         lines.append(f"    {state} --> {t.target}: {label}")
+    if _fallback_note(m):
+        lines.append(f"    note right of {m.fallback_state}: fallback, a corrupted state restarts here")
     return "\n".join(lines) + "\n"
 
 

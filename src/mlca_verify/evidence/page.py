@@ -44,4 +44,5 @@ def render_page(data: dict[str, Any]) -> str:
     children: dict[str | None, list[dict[str, Any]]] = {}
     for node in data["argument"]:
         children.setdefault(node["parent"], []).append(node)
-    return env.get_template(TEMPLATE.name).render(d=data, svgs=svgs, children=children)
+    drawn = inline_svg(data["spec"]["dot"])
+    return env.get_template(TEMPLATE.name).render(d=data, svgs=svgs, drawn=drawn, children=children)
