@@ -35,6 +35,7 @@ def test_the_corpus_holds_the_machines() -> None:
         "level_crossing_10hz",
         "pump_debounce_1khz",
         "thermostat_1hz",
+        "two_cars_gap_10hz",
         "watchdog_100hz",
     ]
 

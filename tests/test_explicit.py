@@ -13,7 +13,7 @@ import z3
 
 from mlca_verify.logic import check_all
 from mlca_verify.logic.datachecks import DataChecker
-from mlca_verify.logic.explicit import _components, _longest, lasso, sustained
+from mlca_verify.logic.explicit import _components, _longest, lasso, restricted_edges, sustained
 from mlca_verify.logic.finite import Finite
 from mlca_verify.logic.induction import Limits, pdr, stopped
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, python_value
@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 MACHINES = sorted((ROOT / "tests" / "machines").glob("*.toml"))
 DATA = [p for p in MACHINES if load_spec(p).machine.has_data]  # the explicit engine serves machines with data
 # machines whose deepest counterexample lies within BMC's default depth of 60 (their timers are short)
-SHORT_RUNS = {"acc_modes_50hz", "battery_bms_10hz", "bus_door", "watchdog_100hz"}
+SHORT_RUNS = {"acc_modes_50hz", "battery_bms_10hz", "bus_door", "two_cars_gap_10hz", "watchdog_100hz"}
 
 
 @pytest.mark.parametrize("path", MACHINES, ids=lambda p: p.stem)
@@ -150,6 +150,29 @@ def test_lasso_and_sustained_runs_are_the_shortest() -> None:
     assert run is not None and len(run) == 2
     assert sustained(search, edges, 3) is None
     assert lasso(search, edges) is None
+
+
+@pytest.mark.parametrize("name", ["bus_door", "crossing_10hz", "level_crossing_10hz"])
+def test_the_labelled_steps_kept_are_the_steps_taken_again(name: str) -> None:
+    """Each response's waiting steps, kept as the search takes them, against every step taken again from every
+    configuration expanded and tested with the response's own assumption and goal."""
+    finite = Finite(load_spec(ROOT / "tests" / "machines" / f"{name}.toml").machine, Limits().timeout_ms)
+    search = finite.base
+    assert search is not None and finite.labelled
+    search.run(finite.budget)
+    assert search.complete
+    for k, live_id in enumerate(finite.labelled):
+        waiting = finite._waiting(live_id)
+        again: list[list[tuple[int, int]]] = [[] for _ in range(search.done)]
+        for at in range(search.done):
+            for c, cls in enumerate(search.classes):
+                taken = search.take(search.configs[at], cls)
+                if taken is None or taken[1] is None or taken[3] is None:
+                    continue
+                if waiting(taken[1]):
+                    again[at].append((search.index[taken[3]], c))
+        kept = restricted_edges(search, k)
+        assert kept == again and any(kept), live_id
 
 
 def test_an_unknown_says_why_in_words_and_what_to_try() -> None:

@@ -16,6 +16,7 @@ on the machine's load.
 
 from __future__ import annotations
 
+from array import array
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
@@ -28,6 +29,7 @@ Config = tuple[Value | None, ...]  # mode, first, variables..., registers...
 # A target's test of one step: the environment before it, after it (None: no transition enabled where the
 # machine is undefined, so no step), the transition that fired (-1: none) and the configuration reached.
 Test = Callable[[Env, "Env | None", int, "Config | None"], bool]
+Edges = list[list[tuple[int, int]]]  # per configuration expanded: (the configuration reached, the class)
 
 
 @dataclass(frozen=True)
@@ -81,6 +83,47 @@ class Target:
 
 
 @dataclass
+class Labels:
+    """The steps the search has taken, each with a bit per label (a predicate on the environment after the step:
+    a response's `assume and not goal`), kept as the steps are taken so that no step is taken twice: step `j`
+    leaves configuration `at` for `to[j]` under class `classes[j]`, where `start[at] <= j < start[at + 1]`.
+    A label whose predicate could not be decided keeps the first reason instead of its bits."""
+
+    tests: Sequence[Callable[[Env], bool]]
+    start: array[int] = field(default_factory=lambda: array("l"))
+    to: array[int] = field(default_factory=lambda: array("l"))
+    classes: array[int] = field(default_factory=lambda: array("l"))
+    bits: list[bytearray] = field(default_factory=list)
+    undecidable: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.bits = [bytearray() for _ in self.tests]
+        self.undecidable = ["" for _ in self.tests]
+
+    def add(self, to: int, cls: int, after: Env) -> None:
+        self.to.append(to)
+        self.classes.append(cls)
+        for k, test in enumerate(self.tests):
+            bit = False
+            if not self.undecidable[k]:
+                try:
+                    bit = bool(test(after))
+                except Undecidable as exc:
+                    self.undecidable[k] = str(exc)
+            self.bits[k].append(bit)
+
+    def edges(self, label: int, done: int) -> Edges:
+        """The steps between the first `done` configurations after which label `label` holds."""
+        if self.undecidable[label]:
+            raise Undecidable(self.undecidable[label])
+        bits, ends = self.bits[label], [*self.start[1 : done + 1], len(self.to)]
+        return [
+            [(self.to[j], self.classes[j]) for j in range(self.start[at], ends[at]) if bits[j] and self.to[j] < done]
+            for at in range(done)
+        ]
+
+
+@dataclass
 class Search:
     """A breadth-first search over configurations, resumable: `run` goes on from where it stopped."""
 
@@ -88,6 +131,7 @@ class Search:
     classes: Sequence[InputClass]
     registers: Sequence[Eval]
     targets: list[Target]
+    labels: Labels | None = None  # the steps taken, labelled, when some response reads them (`restricted_edges`)
     configs: list[Config] = field(default_factory=list)
     index: dict[Config, int] = field(default_factory=dict)
     parent: list[tuple[int, int]] = field(default_factory=list)
@@ -131,6 +175,8 @@ class Search:
     def expand(self, at: int) -> None:
         config = self.configs[at]
         open_targets = self.open
+        if self.labels is not None:
+            self.labels.start.append(len(self.labels.to))
         for c, cls in enumerate(self.classes):
             taken = self.take(config, cls)
             if taken is None:
@@ -144,6 +190,8 @@ class Search:
                 self.configs.append(nxt)
                 self.parent.append((at, c))
                 self.depth.append(self.depth[at] + 1)
+            if self.labels is not None and after is not None and nxt is not None:
+                self.labels.add(self.index[nxt], c, after)
 
     def take(
         self, config: Config, cls: InputClass, total: bool = False
@@ -213,21 +261,11 @@ def count_after(c: Counter, after: Env, before: Value | None) -> int | Value:
     return 0
 
 
-Edges = list[list[tuple[int, int]]]  # per configuration expanded: (the configuration reached, the class)
-
-
-def restricted_edges(search: Search, restricted: Callable[[Env], bool]) -> Edges:
-    """The steps between expanded configurations after which `restricted` holds."""
-    edges: Edges = [[] for _ in range(search.done)]
-    for at in range(search.done):
-        for c, cls in enumerate(search.classes):
-            taken = search.take(search.configs[at], cls)
-            if taken is None or taken[1] is None or taken[3] is None or not restricted(taken[1]):
-                continue
-            to = search.index[taken[3]]
-            if to < search.done:
-                edges[at].append((to, c))
-    return edges
+def restricted_edges(search: Search, label: int) -> Edges:
+    """The steps between expanded configurations after which the search's label `label` holds, as kept when the
+    steps were taken (no step is taken again)."""
+    assert search.labels is not None
+    return search.labels.edges(label, search.done)
 
 
 def lasso(search: Search, edges: Edges) -> tuple[list[int], int] | None:

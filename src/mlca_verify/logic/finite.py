@@ -22,6 +22,7 @@ from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Undecidab
 from mlca_verify.logic.explicit import (
     Config,
     Counter,
+    Labels,
     Search,
     Target,
     Test,
@@ -91,7 +92,17 @@ class Finite:
             raise NotFinite("prev() inside prev()")
         self.classes = input_classes(System(m), list(c.atoms), inputs_only, self.timeout_ms)
         self.targets = targets
-        self.base = Search(step, self.classes, registers, list(targets.values()))
+        self.labelled = [*self.counters, *self.unbounded]  # the responses, each read through a label of the search
+        tests = [self._waiting(live_id) for live_id in self.labelled]
+        labels = Labels(tests) if tests else None
+        self.base = Search(step, self.classes, registers, list(targets.values()), labels)
+
+    def _waiting(self, live_id: str) -> Callable[[Env], bool]:
+        """The steps a response waits on: its assumption holds and its goal does not."""
+        if live_id in self.unbounded:
+            return self.unbounded[live_id]
+        counter = self.counters[live_id]
+        return lambda e: bool(counter.assume(e)) and not counter.goal(e)
 
     def _builtins(self) -> dict[str, Target]:
         m, c = self.m, self.compiler
@@ -159,7 +170,7 @@ class Finite:
             return Answer(why=self.base.undecidable or self.incomplete(self.base))
         steps = Fraction(counter.bound(Env(0, (), (), ())))  # over params only: the loader keeps it from 1 on
         try:
-            edges = restricted_edges(self.base, lambda e: bool(counter.assume(e)) and not counter.goal(e))
+            edges = restricted_edges(self.base, self.labelled.index(live_id))
         except Undecidable as exc:
             return Answer(why=f"the explicit-state search stopped: {exc}")
         run = sustained(self.base, edges, max(int(steps), 1))
@@ -174,7 +185,7 @@ class Finite:
         if self.base.undecidable:
             return Answer(why=self.base.undecidable)
         try:
-            found = lasso(self.base, restricted_edges(self.base, restricted))
+            found = lasso(self.base, restricted_edges(self.base, self.labelled.index(live_id)))
         except Undecidable as exc:
             return Answer(why=f"the explicit-state search stopped: {exc}")
         if found is not None:
