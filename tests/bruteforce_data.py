@@ -44,9 +44,11 @@ from mlca_verify.model import (
     Neg,
     Not,
     Num,
+    Output,
     Prev,
     StateIn,
     Var,
+    Variable,
     nodes,
 )
 
@@ -402,10 +404,12 @@ class DataExplorer:
         return Check((), lambda pre, mv, post, n: mv.transition == tid)
 
     def range_check(self, name: str) -> Check:
-        v = next(v for v in self.m.variables if v.name == name)
-        assert v.range is not None
-        low, high = v.range
-        return Check((), lambda pre, mv, post, n: not low <= post.variables[name] <= high)
+        """A variable, or an output, outside its declared range after a step."""
+        ranged: list[Variable | Output] = [*self.m.variables, *self.m.outputs]
+        element = next(e for e in ranged if e.name == name)
+        assert element.range is not None
+        low, high = element.range
+        return Check((), lambda pre, mv, post, n: not low <= _number(post.name(name)) <= high)
 
     def completeness_check(self) -> Check:
         return Check((), lambda pre, mv, post, n: mv.transition is None, total=True)
@@ -437,9 +441,9 @@ class DataExplorer:
             yield f"reach:{s}", self.reach_check(s), False, True
         for t in m.transitions:
             yield f"fires:{t.id}", self.fires_check(t.id), False, True
-        for v in m.variables:
-            if v.range is not None:
-                yield f"range:{v.name}", self.range_check(v.name), False, False
+        for e in [*m.variables, *m.outputs]:
+            if e.range is not None:
+                yield f"range:{e.name}", self.range_check(e.name), False, False
         for inv in m.invariants:
             yield inv.id, self.invariant_check(inv.expr), inv.parametric, False
         for live in m.liveness:

@@ -9,7 +9,7 @@ import pytest
 
 from mlca_verify.codegen import data_ir
 from mlca_verify.codegen.acsl import AcslLowering, context_free
-from mlca_verify.codegen.certified import Proved, Untranslatable, certify, parse, ranges
+from mlca_verify.codegen.certified import Proved, Untranslatable, assumed_text, certify, parse, ranges
 from mlca_verify.codegen.render import render_template
 from mlca_verify.conform.checks import wp_file
 from mlca_verify.conform.data import WP_FLAGS
@@ -89,6 +89,7 @@ def test_wp_needs_the_certificate(tmp_path: Path) -> None:
                 certified=stated,
                 in_range=ranges(MACHINE, "cp", "pp", pointer=True),
                 params_in_range=ranges(MACHINE, None, "p", pointer=False),
+                assumed=assumed_text(MACHINE, LOWERING),
             )
         )
         fcts = (*WP_FLAGS, "-wp-fct", "mlca_t_step_certified")  # as conform runs it

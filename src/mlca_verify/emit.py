@@ -20,7 +20,7 @@ from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import Layout
 from mlca_verify.logic.results import Counterexample, Result
-from mlca_verify.model import Expr, Liveness, Machine, prevs_of, show
+from mlca_verify.model import Expr, Liveness, Machine, Output, Variable, prevs_of, show
 from mlca_verify.spec import LoadedSpec
 
 LOOP_REPEATS = 3  # a lasso's loop is replayed this many times
@@ -126,13 +126,15 @@ def data_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[str,
         "check_from": 0,
     }
     if result.kind == "range":
-        variable = next(v for v in m.variables if f"range:{v.name}" == result.prop)
-        assert variable.range is not None
-        kind = "double" if variable.type == "real" else "int"
+        ranged: list[Variable | Output] = [*m.variables, *m.outputs]
+        element = next(e for e in ranged if f"range:{e.name}" == result.prop)
+        assert element.range is not None
+        kind = "double" if element.type == "real" else "int"
         values.update(
-            variable=variable.name,
-            low=Escaped(_value_c(variable.range[0] if kind == "double" else int(variable.range[0]), kind)),
-            high=Escaped(_value_c(variable.range[1] if kind == "double" else int(variable.range[1]), kind)),
+            variable=element.name,
+            holder="out" if isinstance(element, Output) else "ctx",  # an output is read from the step's outputs
+            low=Escaped(_value_c(element.range[0] if kind == "double" else int(element.range[0]), kind)),
+            high=Escaped(_value_c(element.range[1] if kind == "double" else int(element.range[1]), kind)),
         )
     if result.kind == "liveness":
         live = next(p for p in m.liveness if p.id == result.prop)

@@ -350,7 +350,10 @@ class Definition:
 
 @dataclass(frozen=True)
 class Output:
-    """A value emitted each step, over the state and variables after the step."""
+    """A value emitted each step, over the state and variables after the step. One that reads signals (directly or
+    through numeric definitions) is `if_invalid` at a step where one of those samples is invalid: its `expr` is
+    already that choice (`if valid(a) and ... then rule else if_invalid`). An int or real one may declare a
+    `range`, proved by the check `range:<name>`; an int's generated type is chosen from it."""
 
     name: str
     type: Type
@@ -359,6 +362,8 @@ class Output:
     doc: str
     cite: str
     loc: Loc
+    range: Range | None = None
+    signals: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -193,6 +193,14 @@ def invariant_text(lowering: AcslLowering, expr: Expr, prev_index: Mapping[Prev,
     return lowering.go(expr, prevs)
 
 
+def assumed_text(m: Machine, lowering: AcslLowering) -> str:
+    """The environment assumptions over the context before the step, its inputs and params: the engine proved
+    the invariants of the steps they allow, so the wrapper requires them. One that compares binary64 values is
+    left out (z3 bit-blasts it); an invariant that needs it is then not proved on the step, never proved wrongly."""
+    parts = [lowering.go(a.expr, {}) for a in m.assumptions if not binary64(a.expr, lowering.n.types)]
+    return " && ".join(f"({x})" for x in parts) or "\\true"
+
+
 @dataclass(frozen=True)
 class Proved:
     """What the engine proved of one invariant: its id and certificate (SMT-LIB), for every param in range."""

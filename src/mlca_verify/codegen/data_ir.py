@@ -9,7 +9,7 @@ from dataclasses import dataclass, field, replace
 from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering, context_free
-from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, real_literal
+from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, output_type, real_literal
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.model import (
@@ -62,6 +62,7 @@ class Definition:
     cite: str
     exact: bool = True  # its logic function has a body: it computes on no real itself (see `binary64`)
     free: bool = False  # its logic function takes no context (see `acsl.context_free`)
+    within: str = ""  # an output's declared range, as the header's comment says it: "in [0, 5.0]"
 
 
 @dataclass(frozen=True)
@@ -280,7 +281,15 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         definitions=tuple(_definition(d, c, py, logic, uses.get(d.name)) for d in m.definitions),
         shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
-            Definition(o.name, c_type(o.type), PY_TYPES[o.type], stated(o.expr, o.type), o.doc, o.cite)
+            Definition(
+                o.name,
+                output_type(o.type, o.range),
+                PY_TYPES[o.type],
+                stated(o.expr, o.type),
+                o.doc,
+                o.cite,
+                within=_within(o.range, o.type),
+            )
             for o in m.outputs
         ),
         cases=cases,
@@ -306,6 +315,13 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
     helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in repr(ir))
     kept = tuple(sh for sh in ir.shapes if set(sh.users) & used)
     return replace(ir, helpers=helpers, used=frozenset(used), shapes=kept)
+
+
+def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
+    if bounds is None:
+        return ""
+    low, high = (_literal(x, kind).c for x in bounds)
+    return f"in [{low}, {high}]"
 
 
 def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code]) -> Register:

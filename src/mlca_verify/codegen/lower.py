@@ -52,6 +52,19 @@ def real_literal(value: Fraction) -> str:
     return text if any(ch in text for ch in ".en") else text + ".0"
 
 
+WIDTHS = ((8, "int8_t"), (16, "int16_t"), (32, "int32_t"))
+
+
+def output_type(kind: Type, bounds: tuple[Fraction, Fraction] | None) -> str:
+    """An output's C type: an int with a range takes the narrowest signed type that holds it."""
+    if kind != "int" or bounds is None:
+        return c_type(kind)
+    for bits, name in WIDTHS:
+        if -(2 ** (bits - 1)) <= bounds[0] and bounds[1] <= 2 ** (bits - 1) - 1:
+            return name
+    return "int64_t"
+
+
 @dataclass(frozen=True)
 class Names:
     """How each name of the machine is read: its kind and type."""
@@ -129,7 +142,8 @@ class Lowering:
         if isinstance(e, Neg):
             if isinstance(e.arg, Num):
                 return self.number(e.arg, negative=True)
-            return f"(-{self.go(e.arg, prevs)})"
+            arg = self.go(e.arg, prevs)
+            return f"(-{self.widened(e.arg, arg) if c and self.type_of(e) == 'int' else arg})"
         if isinstance(e, Ite):
             kind = self.type_of(e)
             cond, a, b = self.go(e.cond, prevs), self.as_type(e.then, kind, prevs), self.as_type(e.other, kind, prevs)
@@ -146,6 +160,8 @@ class Lowering:
         assert isinstance(e, Arith)
         kind = self.type_of(e)
         a, b = self.as_type(e.left, kind, prevs), self.as_type(e.right, kind, prevs)
+        if c and kind == "int" and all(isinstance(x, (Var, Prev)) for x in (e.left, e.right)):
+            a = self.widened(e.left, a)  # two int32_t fields: the sum is computed in int64_t, as every int is
         if e.op == "/":
             return f"{self.n.prefix}_div({a}, {b})" if c else f"_div({a}, {b})"
         return f"({a} {e.op} {b})"

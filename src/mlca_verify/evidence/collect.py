@@ -325,6 +325,8 @@ def data_machine(ev: Evidence) -> dict[str, Any]:
                 "type": o.type,
                 "expr": show(o.expr),
                 "unit": show_unit(o.unit),
+                "range": _range(o.range, o.type),
+                "signals": list(o.signals),
                 "doc": o.doc,
                 "cite": o.cite,
             }

@@ -276,6 +276,33 @@ def _extreme(args: list[Eval], least: bool) -> Eval:
     return run
 
 
+class Sampled(Compiler):
+    """The compiler with each signal fixed to one sample (an input class's witness): an expression that reads
+    both the frame and a signal's value, as an output computed from samples does, evaluates over the frame alone.
+    It makes no atoms: every test of the samples is a constant."""
+
+    def __init__(self, machine: Machine, params: Mapping[str, Value], samples: Mapping[str, Value]) -> None:
+        super().__init__(machine, params)
+        self.samples = dict(samples)
+        self.ranges = {s.name: s.range for s in machine.signals}
+
+    def is_atom(self, expr: Expr) -> bool:
+        return False
+
+    def name(self, name: str) -> Eval:
+        if name in self.samples:
+            value = self.samples[name]
+            return lambda e: value
+        return super().name(name)
+
+    def call(self, expr: Call, kind: Type) -> Eval:
+        if expr.fn == "valid" and isinstance(expr.args[0], Var):
+            low, high = self.ranges[expr.args[0].name]
+            ok = low <= self.samples[expr.args[0].name] <= high
+            return lambda e: ok
+        return super().call(expr, kind)
+
+
 def param_values(machine: Machine) -> dict[str, Value]:
     """Each param at its default, as an exact value of its type."""
     return {p.name: (int(p.default) if p.type == "int" else p.default) for p in machine.params}

@@ -38,13 +38,16 @@ from mlca_verify.logic.symbolic import (
 )
 from mlca_verify.model import (
     Call,
+    Definition,
     Expr,
     Invariant,
     Lemma,
     Liveness,
     Machine,
+    Output,
     Prev,
     Var,
+    Variable,
     Verdict,
     nodes,
     prevs_of,
@@ -52,8 +55,11 @@ from mlca_verify.model import (
 from mlca_verify.words import count
 
 
-def _reads_validity(*exprs: Expr) -> bool:
-    return any(isinstance(n, Call) and n.fn == "valid" for e in exprs for n in nodes(e))
+def _reads_validity(m: Machine, *exprs: Expr) -> bool:
+    """Whether `exprs` test a sample's validity, directly or through an output that reads signals."""
+    gated = {o.name: o.expr for o in m.outputs if o.signals}
+    read = [*exprs, *(gated[n.name] for e in exprs for n in nodes(e) if isinstance(n, Var) and n.name in gated)]
+    return any(isinstance(n, Call) and n.fn == "valid" for e in read for n in nodes(e))
 
 
 WITNESSES = ("reach:", "fires:")  # the checks a run answers
@@ -101,7 +107,7 @@ class DataChecker:
         if total and m.otherwise == "undefined":
             m = replace(m, otherwise="stay")
         prevs = prevs_of(*exprs, *(e for c in monitors for e in (c.assume, c.goal)))
-        abstract = frozenset() if _reads_validity(*exprs) else self.abstractable
+        abstract = frozenset() if _reads_validity(m, *exprs) else self.abstractable
         return self.system(m, prevs, monitors, abstract, parametric), self.system(
             m, prevs, monitors, frozenset(), parametric
         )
@@ -169,7 +175,7 @@ class DataChecker:
         if job.parametric not in self._rounding:
             self._rounding[job.parametric] = Rounding(self.m, job.parametric)
         proved = search.answer == "unreachable" and not search.on_real
-        abstracted = self.abstractable if proved and not _reads_validity(*job.exprs) else frozenset()
+        abstracted = self.abstractable if proved and not _reads_validity(self.m, *job.exprs) else frozenset()
         fault = self._rounding[job.parametric].at_fault(job.exprs, abstracted)
         if fault is None:
             return ""
@@ -310,6 +316,19 @@ class DataChecker:
             for v in m.variables
             if v.range is not None
         ]
+        jobs += [
+            Job(
+                f"range:{o.name}",
+                "range",
+                m.expected(f"range:{o.name}"),
+                o.cite,
+                partial(self.in_range, o.name),
+                p,
+                (o.expr,),
+            )
+            for o in m.outputs
+            if o.range is not None
+        ]
         for site in division_sites(m):
             prop = f"div:{site.name}"
             run = partial(self.division, site)
@@ -410,15 +429,19 @@ class DataChecker:
         return "unknown", found, found.reason, None
 
     def in_range(self, name: str) -> Decision:
-        variable = next(v for v in self.m.variables if v.name == name)
-        assert variable.range is not None
-        low, high = variable.range
+        """Does a variable, or an output, leave its declared range after some step?"""
+        ranged: list[Variable | Output] = [*self.m.variables, *self.m.outputs]
+        element = next(e for e in ranged if e.name == name)
+        assert element.range is not None
+        low, high = element.range
+        output = isinstance(element, Output)
 
         def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
-            x = post.variables[name]
-            return z3.Or(x < value_of(low, variable.type), x > value_of(high, variable.type))
+            x = s.ev(Var(name), t.post) if output else post.variables[name]
+            return z3.Or(x < value_of(low, element.type), x > value_of(high, element.type))
 
-        found = self.search((), bad, parametric=self.parametric, target=f"range:{name}")
+        exprs = (Var(name),) if output else ()
+        found = self.search(exprs, bad, parametric=self.parametric, target=f"range:{name}")
         return self.violation(found, f"{name} leaves [{low}, {high}]")
 
     def division(self, site: Site) -> Decision:
@@ -432,9 +455,11 @@ class DataChecker:
         self, site: Site, terms: tuple[Expr, ...], wrong: Callable[[z3.ExprRef], z3.BoolRef], signals: bool = False
     ) -> Bad:
         """A step where one of `terms` of `site`, evaluated where the code evaluates it, is `wrong`; the samples
-        of a definition valid (the code reads it only then); with `signals`, every int sample within 64 bits."""
-        definition = next((d for d in self.m.definitions if d.name == site.name), None)
-        needed = definition.signals if definition is not None else ()
+        of a definition or an output valid (the code reads it only then); with `signals`, every int sample within
+        64 bits."""
+        sampled: list[Definition | Output] = [*self.m.definitions, *self.m.outputs]
+        element = next((e for e in sampled if e.name == site.name), None)
+        needed = element.signals if element is not None else ()
         ints = [s.name for s in self.m.signals if s.type == "int"] if signals else []
         low, high = z3.IntVal(INT64[0]), z3.IntVal(INT64[1])
 

@@ -18,7 +18,16 @@ from functools import cache, partial
 import z3
 
 from mlca_verify.logic.classes import InputClass, TooManyClasses, input_classes
-from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Undecidable, Value, param_values
+from mlca_verify.logic.concrete import (
+    Compiler,
+    Env,
+    Eval,
+    NotFinite,
+    Sampled,
+    Undecidable,
+    Value,
+    param_values,
+)
 from mlca_verify.logic.explicit import (
     Config,
     Counter,
@@ -35,7 +44,7 @@ from mlca_verify.logic.explicit import (
 from mlca_verify.logic.induction import Path
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
 from mlca_verify.logic.symbolic import Frame, System, python_value, value_of
-from mlca_verify.model import Expr, Liveness, Machine, Var
+from mlca_verify.model import BinOp, Cmp, Expr, Liveness, Machine, Num, Range, Type, Var
 
 WITNESS_STEPS = 200_000  # steps a first search may take to find every witness before the symbolic engines try
 STEPS = 3_000_000  # steps a search may take in all
@@ -115,6 +124,10 @@ class Finite:
             if v.range is not None:
                 low, high = (int(x) if v.type == "int" and x.denominator == 1 else x for x in v.range)
                 found[f"range:{v.name}"] = Target(f"range:{v.name}", _leaves(k, low, high))
+        for o in m.outputs:
+            test = None if o.range is None else self._compiled(partial(_invariant, c, _within(o.name, o.type, o.range)))
+            if test is not None:
+                found[f"range:{o.name}"] = Target(f"range:{o.name}", test)
         if m.otherwise == "undefined":
             found["completeness"] = Target("completeness", _stuck)
         return found
@@ -348,6 +361,12 @@ def _leaves(k: int, low: object, high: object) -> Test:
     return lambda before, after, fired, nxt: after is not None and not (low <= after.variables[k] <= high)  # type: ignore[operator]
 
 
+def _within(name: str, kind: Type, bounds: Range) -> Expr:
+    """`low <= name and name <= high`: the range check of an output, as an invariant."""
+    low, high = (Num(x, kind == "real") for x in bounds)
+    return BinOp("and", Cmp("<=", low, Var(name)), Cmp("<=", Var(name), high))
+
+
 def _stuck(before: Env, after: Env | None, fired: int, nxt: Config | None) -> bool:
     return after is None
 
@@ -373,15 +392,16 @@ class Tracer:
         self.ok = True
         atoms, prevs = dict(c.atoms), dict(c.prevs)
         self.per_step: dict[str, Eval] = {}
+        self.sampled: dict[tuple[int, str], Eval] = {}  # (class, name): one that reads the frame and a sample
         frame_free = [
             n for n in [*(d.name for d in m.definitions), *(o.name for o in m.outputs)] if not c.reads_frame(Var(n))
         ]
-        try:
-            for name in [*(d.name for d in m.definitions), *(o.name for o in m.outputs)]:
-                if name not in frame_free:
+        for name in [*(d.name for d in m.definitions), *(o.name for o in m.outputs)]:
+            if name not in frame_free:
+                try:
                     self.per_step[name] = c.compile(Var(name))
-        except NotFinite:
-            self.ok = False
+                except NotFinite:  # it reads a sample's value: evaluated with each class's witness (`_value`)
+                    c.atoms, c.prevs = dict(atoms), dict(prevs)
         if c.atoms != atoms or c.prevs != prevs:
             self.ok = False
         c.atoms, c.prevs = atoms, prevs
@@ -433,20 +453,39 @@ class Tracer:
                     dict(zip(m.input_names, cls.bools, strict=True)),
                     Outcome(t.id if t else None, t.cite if t else None, m.states[nxt[0]]),  # type: ignore[index]
                     signals={s: known[s] for s in signal_names},
-                    definitions={d.name: self._value(d.name, known, before) for d in m.definitions},
+                    definitions={d.name: self._value(d.name, c, before) for d in m.definitions},
                     variables={v.name: _number(x) for v, x in zip(m.variables, after.variables, strict=True)},
-                    outputs={o.name: self._value(o.name, known, after) for o in m.outputs},
+                    outputs={o.name: self._value(o.name, c, after) for o in m.outputs},
                 )
             )
             config = nxt
         params = {p.name: _number(v) for p, v in zip(m.params, param_values(m).values(), strict=True)}
         return Counterexample(tuple(steps), loop_start, params)
 
-    def _value(self, name: str, known: dict[str, Number], env: Env) -> Number:
+    def _value(self, name: str, cls: int, env: Env) -> Number:
+        known = self.per_class[cls]
         if name in known:
             return known[name]
         env.cache.clear()
-        return _number(self.per_step[name](env))
+        run = self.per_step.get(name) or self._sampled(cls, name)
+        return _number(run(env))
+
+    def _sampled(self, cls: int, name: str) -> Eval:
+        """A value that reads the frame and a sample's value, compiled with the samples of the class's witness."""
+        if (cls, name) not in self.sampled:
+            m = self.f.m
+            samples = {s.name: _exact(v) for s, v in zip(m.signals, self.f.classes[cls].signals, strict=True)}
+            self.sampled[cls, name] = Sampled(m, param_values(m), samples).compile(Var(name))
+        return self.sampled[cls, name]
+
+
+def _exact(value: z3.ExprRef) -> Value:
+    """A witness's sample as an exact number; Undecidable for an irrational one (the symbolic trace shows it)."""
+    if isinstance(value, z3.IntNumRef):
+        return int(value.as_long())
+    if isinstance(value, z3.RatNumRef):
+        return Fraction(value.numerator_as_long(), value.denominator_as_long())
+    raise Undecidable(f"the sample {value} is not a rational number")
 
 
 def _number(value: Value | None) -> Number:

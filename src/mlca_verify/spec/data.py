@@ -13,9 +13,13 @@ from typing import Any, cast
 from mlca_verify.errors import SpecError
 from mlca_verify.model import (
     Assumption,
+    BinOp,
     Call,
+    Const,
     Definition,
     Expr,
+    Ite,
+    Num,
     Output,
     Param,
     Range,
@@ -71,7 +75,7 @@ ROLES = {
     "guard": Role("guard", "bool", _STEP, state=False),
     "update": Role("update", None, _STEP, state=True),
     "definition": Role("definition", None, _STEP | {"signal"}, state=True, numeric_samples=True),
-    "output": Role("output", None, _STEP, state=True),
+    "output": Role("output", None, _STEP | {"signal"}, state=True, numeric_samples=True),
     "environment assumption": Role("environment assumption", "bool", _STEP | {"signal"}, state=True),
     "invariant": Role("invariant", "bool", _STEP | {"output"}, state=True, prev=True),
     "assumption": Role("assumption", "bool", _STEP | {"output"}, state=False, prev=True),
@@ -347,9 +351,45 @@ class DataBuilder:
                 if declared != kind and not (declared == "real" and kind == "int"):
                     raise self.fail((*path, "type"), f"output '{name}' is declared {declared} but its value is {kind}")
                 kind = declared
-            result.append(Output(name, kind, expr, unit or (), item["doc"], item.get("cite", ""), self.where.loc(path)))
+            if "range" in item and kind == "bool":
+                raise self.fail((*path, "range"), f"output '{name}' is a bool: a 'range' is for an int or a real")
+            bounds = self.range_of(path, item, kind)
+            signals = self.signals_read(expr)
+            expr = self.gated(path, item, expr, kind, bounds)
+            loc = self.where.loc(path)
+            result.append(Output(name, kind, expr, unit or (), item["doc"], item.get("cite", ""), loc, bounds, signals))
             self.env[name] = Symbol("output", kind, unit or ())
         return tuple(result)
+
+    def gated(self, path: KeyPath, item: dict[str, Any], expr: Expr, kind: Type, bounds: Range | None) -> Expr:
+        """An output that reads samples: its rule while they are valid, else its `if_invalid` value."""
+        name, signals = path[-1], self.signals_read(expr)
+        if not signals:
+            if "if_invalid" in item:
+                raise self.fail((*path, "if_invalid"), "'if_invalid' applies to an output that reads a signal")
+            return expr
+        if "if_invalid" not in item:
+            raise self.fail(
+                (*path, "expr"),
+                f"output '{name}' reads {', '.join(signals)}: give 'if_invalid', its value at a step where a "
+                "sample is invalid",
+            )
+        value = item["if_invalid"]
+        where = (*path, "if_invalid")
+        if isinstance(value, bool) != (kind == "bool"):
+            wanted = "true or false" if kind == "bool" else f"a number ({kind})"
+            raise self.fail(where, f"'if_invalid' of output '{name}' must be {wanted}")
+        fallback: Expr
+        if isinstance(value, bool):
+            fallback = Const(value)
+        else:
+            exact = self.number(where, value, kind)
+            self.inside(where, exact, bounds, "'if_invalid'")
+            fallback = Num(exact, kind == "real")
+        checks: Expr = Call("valid", (Var(signals[0]),))
+        for s in signals[1:]:
+            checks = BinOp("and", checks, Call("valid", (Var(s),)))
+        return Ite(checks, expr, fallback)
 
     def assumptions(self, check_id: Callable[[KeyPath, str, str], None]) -> tuple[Assumption, ...]:
         result = []

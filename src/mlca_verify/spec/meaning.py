@@ -460,7 +460,7 @@ class MeaningChecker:
 
     def expect_table(self, transitions: tuple[Transition, ...]) -> dict[str, Verdict]:
         known = set(BUILTIN_PROPERTIES) | {f"reach:{s}" for s in self.states} | {f"fires:{t.id}" for t in transitions}
-        known |= {f"range:{v}" for v in self.doc.get("variables", {})}
+        known |= {f"range:{v}" for section in ("variables", "outputs") for v in self.doc.get(section, {})}
         known |= {f"div:{n}" for section in ("definitions", "variables", "outputs") for n in self.doc.get(section, {})}
         known |= {f"div:{t.id}" for t in transitions} | {f"div:{i.get('id')}" for i in self.doc.get("invariant", [])}
         table: dict[str, Verdict] = {}
@@ -469,7 +469,7 @@ class MeaningChecker:
             if key not in known:
                 hint = "determinism, completeness, reach:<state>, fires:<transition id>"
                 if self.data:
-                    hint += ", range:<variable>, div:<name>"
+                    hint += ", range:<variable or output>, div:<name>"
                 raise self.fail(path, f"unknown built-in check {_quoted(key)} in [expect] (one of {hint})")
             table[key] = cast(Verdict, self.choice(path, value, VERDICTS))
         return table

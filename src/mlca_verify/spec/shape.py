@@ -14,7 +14,8 @@ from mlca_verify.spec.names import MAX_ELEMENTS
 
 @dataclass(frozen=True)
 class Field:
-    kind: str  # "str", "str-or-list", "list-of-str", "int", "table-of-str", "bool", "number", "range", "int-or-str"
+    kind: str  # "str", "str-or-list", "list-of-str", "int", "table-of-str", "bool", "number", "range", "int-or-str",
+    # "bool-or-number"
     required: bool = False
 
 
@@ -95,6 +96,8 @@ DEFINITION = {
 OUTPUT = {
     "expr": Field("str", True),
     "type": Field("str"),
+    "range": Field("range"),
+    "if_invalid": Field("bool-or-number"),
     "unit": Field("str"),
     "doc": Field("str", True),
     "cite": Field("str"),
@@ -120,6 +123,7 @@ _KIND_TEXT = {
     "number": "a number",
     "range": "an array of two numbers [low, high]",
     "int-or-str": "an integer or a string",
+    "bool-or-number": "true, false or a number",
 }
 
 
@@ -137,6 +141,7 @@ def _fits(kind: str, value: object) -> bool:
     return {
         "bool": isinstance(value, bool),
         "number": _is_number(value),
+        "bool-or-number": isinstance(value, bool) or _is_number(value),
         "range": isinstance(value, list) and len(value) == 2 and all(_is_number(v) for v in value),
         "int-or-str": isinstance(value, str) or (isinstance(value, int) and not isinstance(value, bool)),
         "str": isinstance(value, str),

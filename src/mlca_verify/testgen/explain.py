@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from mlca_verify.model import Call, Expr, Machine, nodes, show
+from mlca_verify.model import Call, Expr, Machine, name_types, nodes, show, type_of
 from mlca_verify.testgen.coupling import coupling_reason
 from mlca_verify.testgen.measure import Gap
 from mlca_verify.testgen.search import Pair
@@ -20,7 +20,7 @@ _C_TAG = re.compile(r"/\* ([A-Za-z0-9_.-]+): ")
 _PY_TAG = re.compile(r"(?:# |\"\"\")([A-Za-z0-9_.-]+): ")
 _APPEND = re.compile(r"\.append\(\"([A-Za-z0-9_.-]+)\"\)")
 _DEFINITION = re.compile(r"_def_([A-Za-z0-9_]+)\(")
-_HELPER = re.compile(r"_(min|max)(?:_[a-z])?\(")
+_HELPER = re.compile(r"_((?:min|max)(?:_[id])?)\(")  # the C helpers are per type: min_i on ints, min_d on reals
 LOOK_BACK = 3  # lines above a gap searched for the comment naming its element
 
 
@@ -69,10 +69,21 @@ def _expressions(machine: Machine) -> list[Expr]:
     return exprs
 
 
-def saturation(machine: Machine, fn: str, depth: int) -> str:
+def saturation(machine: Machine, helper: str, depth: int) -> str:
     """Why a branch of the shared min or max helper is not taken: only a call of the spec's own that saturates
-    takes it, and no run of the suite makes one do so (a counter reaches its bound after more steps)."""
-    calls = sorted({show(n) for e in _expressions(machine) for n in nodes(e) if isinstance(n, Call) and n.fn == fn})
+    takes it, and no run of the suite makes one do so (a counter reaches its bound after more steps). A C
+    helper (`min_i`, `min_d`) serves the calls of its type only; the Python one (`min`) serves all."""
+    fn, _, suffix = helper.partition("_")
+    kind = {"i": "int", "d": "real"}.get(suffix)
+    types = name_types(machine)
+    calls = sorted(
+        {
+            show(n)
+            for e in _expressions(machine)
+            for n in nodes(e)
+            if isinstance(n, Call) and n.fn == fn and kind in (None, type_of(n, types))
+        }
+    )
     if not calls:
         return ""
     return (

@@ -38,7 +38,7 @@ from mlca_verify.model import (
     children,
     show,
 )
-from mlca_verify.testgen.reads import read_context
+from mlca_verify.testgen.reads import read_after_context, read_before, read_context
 
 Where = Literal["pre", "post"]  # over the frame before the step (guards, definitions) or after it (monitor, outputs)
 
@@ -110,18 +110,27 @@ def definition_decisions(machine: Machine) -> Iterator[Decision]:
     for d in machine.definitions:
         if d.type != "bool":
             continue
-        read = _read(machine, d.name)
+        read, where = _read(machine, d.name), _where(machine, d.name)
         checks = validity(machine, d.signals)
         if checks is not None:
-            yield Decision(f"valid:{d.name}", "definition", checks, "pre", None, read, d.cite, d.loc)
+            yield Decision(f"valid:{d.name}", "definition", checks, where, None, read, d.cite, d.loc)
         given = (*read, checks) if checks is not None else read
-        yield Decision(f"def:{d.name}", "definition", d.expr, "pre", None, given, d.cite, d.loc)
+        yield Decision(f"def:{d.name}", "definition", d.expr, where, None, given, d.cite, d.loc)
 
 
 def _read(machine: Machine, name: str) -> tuple[Expr, ...]:
+    """What holds wherever the code reads definition `name`: before the step, or (read only by the outputs and
+    the monitor) after it."""
     checks = {d.name: validity(machine, d.signals) for d in machine.definitions if d.type == "bool"}
-    context = read_context(machine, name, checks)
+    if read_before(machine, name):
+        context = read_context(machine, name, checks)
+    else:
+        context = read_after_context(machine, name, checks)
     return () if context is None else (context,)
+
+
+def _where(machine: Machine, name: str) -> Where:
+    return "pre" if read_before(machine, name) else "post"
 
 
 def rule(machine: Machine, name: str) -> Expr:
@@ -142,7 +151,7 @@ def choice_decisions(machine: Machine) -> Iterator[Decision]:
     for d in machine.definitions:
         checks = validity(machine, d.signals)
         given = (*_read(machine, d.name), checks) if checks is not None else _read(machine, d.name)
-        roots.append((d.name, d.expr, "pre", d.loc, d.cite, given))
+        roots.append((d.name, d.expr, _where(machine, d.name), d.loc, d.cite, given))
     for v in machine.variables:
         if v.every is not None:
             roots.append((f"every:{v.name}", v.every, "pre", v.loc, v.cite, _no_update(machine, v.name)))

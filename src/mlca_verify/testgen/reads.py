@@ -5,6 +5,8 @@ expression over the step, from the spec alone."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from mlca_verify.codegen.simplify import conjoin
 from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
 
@@ -67,9 +69,41 @@ def read_context(machine: Machine, name: str, checks: dict[str, Expr | None]) ->
         for t in machine.outgoing(state):
             parts += [conjoin([StateIn((state,)), *earlier, *p]) for p in paths(t.guard, name)]
             earlier.append(Not(t.guard))
+    parts += _through_definitions(machine, name, checks, read_context)
+    return _any(parts) if parts else None
+
+
+Context = Callable[[Machine, str, dict[str, Expr | None]], Expr | None]
+
+
+def _through_definitions(machine: Machine, name: str, checks: dict[str, Expr | None], outer_of: Context) -> list[Expr]:
+    """Where `name` is read inside the definitions that read it: each one's own read context (`outer_of`), its
+    samples valid, and the short circuits inside it."""
+    parts: list[Expr] = []
     for d in machine.definitions:
         if d.name != name and _reads(d.expr, name):
-            outer = read_context(machine, d.name, checks)
-            gate = [g for g in (outer, checks.get(d.name)) if g is not None]
+            gate = [g for g in (outer_of(machine, d.name, checks), checks.get(d.name)) if g is not None]
             parts += [conjoin([*gate, *p]) for p in paths(d.expr, name)]
+    return parts
+
+
+def read_before(machine: Machine, name: str) -> bool:
+    """Does the step read definition `name` over the context before it (a guard, an update, an `every`, an
+    environment assumption, or a definition read so)? If not, only the outputs and the monitor read it, after
+    the step."""
+    exprs: list[Expr | None] = [t.guard for t in machine.transitions]
+    exprs += [u.expr for t in machine.transitions for u in t.updates] + [v.every for v in machine.variables]
+    exprs += [a.expr for a in machine.assumptions]
+    if any(_reads(e, name) for e in exprs):
+        return True
+    return any(d.name != name and _reads(d.expr, name) and read_before(machine, d.name) for d in machine.definitions)
+
+
+def read_after_context(machine: Machine, name: str, checks: dict[str, Expr | None]) -> Expr | None:
+    """Where the monitor reads definition `name` after the step: inside its invariants (and the definitions they
+    read), as the short circuits allow; None where an output reads it (every step) or nothing says where."""
+    if any(_reads(o.expr, name) for o in machine.outputs):
+        return None
+    parts = [conjoin(list(p)) for inv in machine.invariants for p in paths(inv.expr, name)]
+    parts += _through_definitions(machine, name, checks, read_after_context)
     return _any(parts) if parts else None
