@@ -516,8 +516,7 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
         next.prev0 = mlca_t_reg0(&next, i, p);
         next.first = false;
     }
-    /*@ assert mlca_t_next(*c, *i, *p, fired, next); */ /* the witness of the existential in the contract */
-    /*@ assert stepped: \exists integer k; mlca_t_fires(*c, *i, *p, k) && mlca_t_next(*c, *i, *p, k, next); */ /* before the outputs */
+    /*@ assert stepped: \exists integer k; mlca_t_fires(*c, *i, *p, k) && mlca_t_next(*c, *i, *p, k, next); */ /* the contract's existential, before the outputs */
     mlca_t_outputs(&next, i, p, o);
     *c = next;
 }

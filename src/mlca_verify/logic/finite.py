@@ -398,10 +398,11 @@ class Tracer:
         ]
         for name in [*(d.name for d in m.definitions), *(o.name for o in m.outputs)]:
             if name not in frame_free:
+                before = dict(c.atoms), dict(c.prevs)
                 try:
                     self.per_step[name] = c.compile(Var(name))
                 except NotFinite:  # it reads a sample's value: evaluated with each class's witness (`_value`)
-                    c.atoms, c.prevs = dict(atoms), dict(prevs)
+                    c.atoms, c.prevs = before
         if c.atoms != atoms or c.prevs != prevs:
             self.ok = False
         c.atoms, c.prevs = atoms, prevs
