@@ -530,6 +530,7 @@ void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const
 {
     const mlca_t_ctx_t *c = after;
     const bool prev0 = before->first ? mlca_t_reg0(before, i, p) : before->prev0;
+    (void)c;
     (void)before;
     (void)after;
     (void)i;

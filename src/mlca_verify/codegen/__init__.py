@@ -13,7 +13,9 @@ from mlca_verify.codegen.render import TEMPLATE_DIR, render, render_data
 from mlca_verify.errors import CodegenError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import GENERATED_GLOB
+from mlca_verify.logic.datachecks import completeness
 from mlca_verify.logic.graph import Encoding, explore
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.solver import Solver
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.version import __version__
@@ -56,6 +58,12 @@ def data_ir(spec: LoadedSpec, out_dir: Path) -> DataIR:
     base = out_dir.resolve().parent
     rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
     m = spec.machine
+    if m.otherwise == "undefined" and completeness(m, Limits()) != "holds":
+        raise CodegenError.at(
+            m.loc,
+            f"machine '{m.name}' may reach a step with no transition enabled (otherwise = \"undefined\"; "
+            "`mlca-verify check` shows the run); generated code needs a defined next state",
+        )
     return build_data_ir(m, m.name.lower(), rel, spec.sha256, f"{GENERATOR_NAME} {__version__}")
 
 

@@ -89,15 +89,19 @@ class Branch:
 
 @dataclass(frozen=True)
 class Case:
-    """A mode's transitions in priority order. The code writes the first `written` of them; when `closes`, the
-    last of those is enabled whenever the ones before it are not (its guard negates an earlier one, or is
-    `true`), so it is the chain's `else` and nothing after it is reachable. The contracts keep every branch."""
+    """A mode's transitions in priority order. The code writes `code`: the first `written` of them, but for a
+    guard that repeats an earlier one of the mode (never taken there: `repeats` names each with the one it
+    repeats). When `closes`, the last written is enabled whenever the ones before it are not (its guard negates an
+    earlier one, or is `true`), so it is the chain's `else` and nothing after it is reachable. The contracts keep
+    every branch."""
 
     state: str
     index: int
     branches: tuple[Branch, ...]
     written: int = 0
     closes: bool = False
+    code: tuple[Branch, ...] = ()
+    repeats: tuple[tuple[Branch, Branch], ...] = ()
 
 
 def closing(guards: Sequence[Expr]) -> int | None:
@@ -112,7 +116,12 @@ def closing(guards: Sequence[Expr]) -> int | None:
 
 def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr]) -> Case:
     last = closing(guards)
-    return Case(state, index, branches, len(branches) if last is None else last + 1, last is not None)
+    written = len(branches) if last is None else last + 1
+    first = {g: branches[k] for k, g in reversed(list(enumerate(guards[:written])))}
+    repeats = tuple((b, first[g]) for b, g in zip(branches[:written], guards, strict=False) if first[g] is not b)
+    shadowed = {id(b) for b, _ in repeats}
+    code = tuple(b for b in branches[:written] if id(b) not in shadowed)
+    return Case(state, index, branches, written, last is not None, code, repeats)
 
 
 @dataclass(frozen=True)

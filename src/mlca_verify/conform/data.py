@@ -216,9 +216,12 @@ def random_inputs(ir: DataIR, rng: random.Random) -> Row:
 
 
 class Semantics:
-    """One step of the spec by z3: the engine's step relation with every constant of the step fixed."""
+    """One step of the spec by z3: the engine's step relation with every constant of the step fixed. Where no
+    transition is enabled the mode is kept, as the code keeps it (generation refuses a machine that can reach
+    such a step with otherwise = undefined; the boundary set also holds configurations no run reaches)."""
 
     def __init__(self, machine: Machine) -> None:
+        machine = replace(machine, otherwise="stay")
         self.m = machine
         self.system = System(machine, prevs_of(*(inv.expr for inv in machine.invariants)))
         self.pre, self.inputs, self.post = self.system.frame("s0"), self.system.inputs("s0"), self.system.frame("s1")

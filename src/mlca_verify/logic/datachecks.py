@@ -583,3 +583,10 @@ def _fires(tid: str) -> Bad:
 
 def check_data_machine(machine: Machine, limits: Limits, parametric: bool = False) -> list[Result]:
     return DataChecker(machine, limits, parametric).run_all()
+
+
+def completeness(machine: Machine, limits: Limits) -> Verdict:
+    """Whether every reachable step of `machine` has a transition enabled (or otherwise = stay)."""
+    checker = DataChecker(machine, limits)
+    verdict, _, _, _ = checker.completeness()
+    return verdict

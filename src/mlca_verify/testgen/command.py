@@ -133,7 +133,8 @@ def tests(
         report.coverage.append(python_coverage(files["python"], layout.python, work))
         report.coverage.append(c_coverage(files["c"], layout.c_source, work))
         for c, source in zip(report.coverage, (layout.python, layout.c_source), strict=True):
-            fill(c.gaps, source.read_text(encoding="utf-8"), spec.machine, suite.pairs, c.language, depth=suite.depth)
+            text = source.read_text(encoding="utf-8")
+            fill(c.gaps, text, spec.machine, suite.pairs, c.language, depth=suite.depth, unvisited=suite.unvisited)
             say(_coverage_line(c))
     if on_target:
         report.target = target.run_on_target(files["c"], layout.c_source, work, report.host_lines)

@@ -59,7 +59,8 @@ def _types(m: Machine) -> dict[str, bool]:
 
 
 def _c_struct(values: Mapping[str, object], real: dict[str, bool]) -> Escaped:
-    return Escaped("{" + ", ".join(f".{k} = {c_value(v, real.get(k, False))}" for k, v in values.items()) + "}")
+    fields = ", ".join(f".{k} = {c_value(v, real.get(k, False))}" for k, v in values.items())
+    return Escaped("{" + (fields or "0") + "}")  # C99 has no empty initializer
 
 
 def python_suite(suite: Suite, header: Header) -> str:

@@ -16,17 +16,21 @@ DIVISION = (
     "a division by zero, which the spec's divisors never are for params within their ranges (the division "
     "checks of `mlca-verify check` prove it)"
 )
-_C_TAG = re.compile(r"/\* ([A-Za-z0-9_.-]+): ")
+_C_TAG = re.compile(r"/\* ([A-Za-z0-9_.-]+)(?:: | \*/)")
 _PY_TAG = re.compile(r"(?:# |\"\"\")([A-Za-z0-9_.-]+): ")
 _APPEND = re.compile(r"\.append\(\"([A-Za-z0-9_.-]+)\"\)")
 _DEFINITION = re.compile(r"_def_([A-Za-z0-9_]+)\(")
-_HELPER = re.compile(r"_((?:min|max)(?:_[id])?)\(")  # the C helpers are per type: min_i on ints, min_d on reals
+_HELPER = re.compile(r"_((?:min|max|abs)(?:_[id])?)\(")  # the C helpers are per type: min_i on ints, min_d on reals
+_MODE_CASE = re.compile(r"c\.mode == State\.([A-Za-z0-9_]+):")  # the Python `_fired`'s case of one mode
+_MODE_FUNCTION = re.compile(r"_fired_([A-Za-z0-9_]+)\(")  # the C function of one mode's chain
+_OTHERWISE = re.compile(r"otherwise: the mode is kept")
+_FIRED = re.compile(r"\bfired == (\d+)\b")  # the step's branch of one transition (numbered from 1, in spec order)
 LOOK_BACK = 3  # lines above a gap searched for the comment naming its element
 
 
-def element_of(lines: Sequence[str], line: int, known: set[str]) -> str | None:
-    """The spec element named on the gap's line, in a comment just above it, or by the monitor's verdict on the
-    line below."""
+def element_of(lines: Sequence[str], line: int, known: set[str], numbered: Sequence[str] = ()) -> str | None:
+    """The spec element named on the gap's line, in a comment just above it, by the monitor's verdict on the
+    line below, or by the number of the transition whose branch of the step holds it (`numbered`, from 1)."""
     for k in (line - 1, line):  # the verdict on the gap's own line, or on the line below it
         verdict = _APPEND.search(lines[k]) if k < len(lines) else None
         if verdict and verdict.group(1) in known:
@@ -36,6 +40,9 @@ def element_of(lines: Sequence[str], line: int, known: set[str]) -> str | None:
         for match in (*_C_TAG.finditer(text), *_PY_TAG.finditer(text)):
             if match.group(1) in known:
                 return match.group(1)
+        branch = _FIRED.search(text)
+        if branch and 0 < int(branch.group(1)) <= len(numbered):
+            return numbered[int(branch.group(1)) - 1]
         if k < line - 1 and not text.strip().startswith(("#", "/*", "*")):
             break
     name = _header_match(lines, line, _DEFINITION)
@@ -70,8 +77,9 @@ def _expressions(machine: Machine) -> list[Expr]:
 
 
 def saturation(machine: Machine, helper: str, depth: int) -> str:
-    """Why a branch of the shared min or max helper is not taken: only a call of the spec's own that saturates
-    takes it, and no run of the suite makes one do so (a counter reaches its bound after more steps). A C
+    """Why a branch of the shared min, max or abs helper is not taken: only a call of the spec's own that
+    saturates (or, for abs, reads a negative value) takes it, and no run of the suite makes one do so (a counter
+    reaches its bound after more steps). A C
     helper (`min_i`, `min_d`) serves the calls of its type only; the Python one (`min`) serves all."""
     fn, _, suffix = helper.partition("_")
     kind = {"i": "int", "d": "real"}.get(suffix)
@@ -86,8 +94,9 @@ def saturation(machine: Machine, helper: str, depth: int) -> str:
     )
     if not calls:
         return ""
+    where = "reads a negative value" if fn == "abs" else "bounds its value"
     return (
-        f"the shared {fn} helper takes this branch only where one of the spec's {fn}(...) bounds its value "
+        f"the shared {fn} helper takes this branch only where one of the spec's {fn}(...) {where} "
         f"({', '.join(calls)}), which no run of the suite (at most {depth} steps) does; a longer run may "
         "(try --depth)"
     )
@@ -109,16 +118,58 @@ def reasons_for(element: str, pairs: Sequence[Pair], language: str, has_data: bo
     return found
 
 
+def mode_of(lines: Sequence[str], line: int, states: Sequence[str]) -> str | None:
+    """The mode whose chain of guards holds the gap's line: the C function of that mode, or the Python case."""
+    name = _header_match(lines, line, _MODE_FUNCTION)
+    if name in states:
+        return name
+    if not in_function(lines, line, ("_fired",)):
+        return None
+    for k in range(line - 1, -1, -1):
+        case = _MODE_CASE.search(lines[k])
+        if case:
+            return case.group(1) if case.group(1) in states else None
+        if lines[k].startswith("def "):
+            break
+    return None
+
+
+def _last_guard(lines: Sequence[str], line: int, machine: Machine) -> str | None:
+    """The last transition of the mode's chain, for a gap in its `otherwise` branch (taken when that transition's
+    guard is false too)."""
+    if not any(_OTHERWISE.search(lines[k]) for k in (line - 2, line - 1) if 0 <= k < len(lines)):
+        return None
+    mode = mode_of(lines, line, machine.states)
+    chain = machine.outgoing(mode) if mode is not None else ()
+    return chain[-1].id if chain else None
+
+
+def unvisited_reason(mode: str, depth: int) -> str:
+    return (
+        f"no run of the suite (at most {depth} steps) is in {mode}, so its guards are never evaluated "
+        f"(`mlca-verify check` tells by reach:{mode} whether any run is)"
+    )
+
+
 def explain(
-    gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str, *, depth: int
+    gaps: Sequence[Gap],
+    source: str,
+    machine: Machine,
+    pairs: Sequence[Pair],
+    language: str,
+    *,
+    depth: int,
+    unvisited: Sequence[str] = (),
 ) -> list[str]:
-    """A reason per gap ("" where none is known: a gap the suite should close)."""
+    """A reason per gap ("" where none is known: a gap the suite should close); `unvisited` are the modes no run
+    of the suite is in."""
     lines = source.splitlines()
     known = {t.id for t in machine.transitions} | {i.id for i in machine.invariants}
     known |= {d.name for d in machine.definitions}
+    numbered = [t.id for t in machine.transitions]
     reasons = []
     for gap in gaps:
-        element = element_of(lines, gap.line, known)
+        element = element_of(lines, gap.line, known, numbered) or _last_guard(lines, gap.line, machine)
         found = reasons_for(element, pairs, language, machine.has_data) if element else []
         if not found and in_function(lines, gap.line, ("_div",)):
             found = [DIVISION]
@@ -127,12 +178,23 @@ def explain(
             found = [x for x in (saturation(machine, helper, depth),) if x]
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
+        mode = None if found else mode_of(lines, gap.line, machine.states)
+        if mode is not None and mode in unvisited:
+            found = [unvisited_reason(mode, depth)]
         reasons.append(" | ".join(found))
     return reasons
 
 
 def fill(
-    gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], language: str, *, depth: int
+    gaps: Sequence[Gap],
+    source: str,
+    machine: Machine,
+    pairs: Sequence[Pair],
+    language: str,
+    *,
+    depth: int,
+    unvisited: Sequence[str] = (),
 ) -> None:
-    for gap, reason in zip(gaps, explain(gaps, source, machine, pairs, language, depth=depth), strict=True):
+    found = explain(gaps, source, machine, pairs, language, depth=depth, unvisited=unvisited)
+    for gap, reason in zip(gaps, found, strict=True):
         gap.reason = reason

@@ -34,6 +34,7 @@ from mlca_verify.model import (
     Not,
     Num,
     StateIn,
+    Transition,
     Var,
     children,
     show,
@@ -156,11 +157,25 @@ def choice_decisions(machine: Machine) -> Iterator[Decision]:
         if v.every is not None:
             roots.append((f"every:{v.name}", v.every, "pre", v.loc, v.cite, _no_update(machine, v.name)))
     roots += [(f"out:{o.name}", o.expr, "post", o.loc, o.cite, ()) for o in machine.outputs]
+    for t in machine.transitions:  # an update: read where its transition fires (one piece of code for every mode)
+        roots += [(t.id, u.expr, "pre", t.loc, t.cite, (_fires(machine, t),)) for u in t.updates]
     for name, root, where, loc, cite, given in roots:
         for k, node in enumerate(_choices(root)):
             kind: Literal["choice", "output"] = "output" if isinstance(node, Ite) else "choice"
             condition = _choice_condition(node)
             yield Decision(f"{kind}:{name}#{k + 1}", kind, condition, where, None, given, cite, loc)
+
+
+def _fires(machine: Machine, t: Transition) -> Expr:
+    """`t` fires: in a mode it leaves, its guard holds and the earlier guards of that mode do not."""
+    fired: Expr = Const(False)
+    for state in machine.states:
+        if t.applies_to(state):
+            out = machine.outgoing(state)
+            earlier = [Not(e.guard) for e in out[: out.index(t)]]
+            way = conjoin([StateIn((state,)), *earlier, t.guard])
+            fired = way if fired == Const(False) else BinOp("or", fired, way)
+    return fired
 
 
 def _no_update(machine: Machine, variable: str) -> tuple[Expr, ...]:

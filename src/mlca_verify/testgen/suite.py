@@ -136,7 +136,7 @@ def _expected(system: System, model: z3.ModelRef, post: Frame, terms: StepTerms)
 def param_cases(machine: Machine) -> list[ParamCase]:
     """The defaults, then each param just below and just above its range."""
     defaults = {p.name: _param_value(p.default, p.type) for p in machine.params}
-    cases = [ParamCase("defaults", defaults, True)] if machine.params else []
+    cases = [ParamCase("defaults", defaults, True)] if machine.has_data else []  # code with data checks its params
     for p in machine.params:
         if p.range is None:
             continue
