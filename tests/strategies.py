@@ -2,10 +2,25 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from hypothesis import strategies as st
 
 from mlca_verify.errors import Loc
-from mlca_verify.model import BinOp, Const, Expr, Input, Invariant, Liveness, Machine, Not, StateIn, Transition, Var
+from mlca_verify.model import (
+    BinOp,
+    Const,
+    Expr,
+    Input,
+    Invariant,
+    Liveness,
+    Machine,
+    Not,
+    StateIn,
+    Transition,
+    Var,
+    show,
+)
 
 HERE = Loc("<random>", 1, 1)
 
@@ -58,3 +73,43 @@ def machines_over(draw: st.DrawFn, states: tuple[str, ...], inputs: tuple[str, .
         invariants=invariants,
         liveness=liveness,
     )
+
+
+def _toml_list(names: tuple[str, ...]) -> str:
+    return "[" + ", ".join(f'"{n}"' for n in names) + "]"
+
+
+def spec_text(m: Machine) -> str:
+    """A machine without data as the spec file that loads as it (names and guards as the strategies draw them)."""
+    lines = [
+        "[machine]",
+        f'name = "{m.name}"',
+        f'initial = "{m.initial}"',
+        f"states = {_toml_list(m.states)}",
+        f'semantics = "{m.semantics}"',
+        f'otherwise = "{m.otherwise}"',
+        "",
+        "[inputs]",
+        *(f'{i.name} = {{ doc = "{i.doc}" }}' for i in m.inputs),
+    ]
+    for t in m.transitions:
+        source = '"*"' if t.sources is None else _toml_list(t.sources)
+        lines += ["", "[[transition]]", f'id = "{t.id}"', f"from = {source}", f'to = "{t.target}"']
+        lines.append(f'when = "{show(t.guard)}"')
+    for inv in m.invariants:
+        lines += ["", "[[invariant]]", f'id = "{inv.id}"', f'expr = "{show(inv.expr)}"']
+    for live in m.liveness:
+        lines += [
+            "",
+            "[[liveness]]",
+            f'id = "{live.id}"',
+            f'assume = "{show(live.assume)}"',
+            f'goal = "{show(live.goal)}"',
+        ]
+        lines += [f"within = {live.within}"] if live.within is not None else []
+    return "\n".join(lines) + "\n"
+
+
+def boolean_specs() -> st.SearchStrategy[str]:
+    """Spec files of machines without data, first-match (the semantics the generator takes)."""
+    return machines(max_states=4, max_inputs=3, name="B").map(lambda m: spec_text(replace(m, semantics="first-match")))

@@ -175,3 +175,179 @@ do = "c = 0"
     reasons = [g["reason"] for c in coverage for g in c["gaps"]]
     assert reasons and all(reasons)
     assert any("shared abs helper" in r for r in reasons)
+
+
+def test_what_a_condition_s_own_text_decides_is_decided_before_the_code() -> None:
+    from mlca_verify.codegen.tidy import known_false, tidy, without_known
+    from mlca_verify.model import BinOp, Const, Ite, Not
+
+    types = {"a": "bool", "d": "int", "r": "real"}
+    a, d, r = Var("a"), Var("d"), Var("r")
+    three, one = Num(Fraction(3), False), Num(Fraction(1), False)
+    assert tidy(Cmp("<=", three, one), types) == Const(False)
+    assert tidy(Cmp("==", d, d), types) == Const(True) and tidy(Cmp("<", d, d), types) == Const(False)
+    assert tidy(Cmp("==", r, r), types) == Cmp("==", r, r)  # binary64: a NaN is not equal to itself
+    assert tidy(BinOp("->", a, a), types) == Const(True) and tidy(BinOp("or", a, Not(a)), types) == Const(True)
+    assert tidy(BinOp("->", Not(a), a), types) == a and tidy(BinOp("and", a, Not(a)), types) == Const(False)
+    implies = BinOp("->", Cmp("<=", three, one), a)  # 3 <= 1 -> a
+    assert tidy(implies, types) == Const(True) and tidy(BinOp("and", implies, a), types) == a
+    assert tidy(Ite(Cmp("!=", d, d), three, one), types) == one
+    kept = BinOp("and", a, Cmp("<", d, three))
+    assert tidy(kept, types) is kept  # nothing to decide: the spec's own node
+    assert without_known(BinOp("and", Not(a), Cmp("<", d, three)), known_false(a)) == Cmp("<", d, three)
+    assert without_known(Not(a), known_false(BinOp("or", a, Cmp("<", d, three)))) == Const(True)
+
+
+@pytest.mark.slow
+def test_conditions_decided_by_their_own_text_build_and_pass_cppcheck(tmp_path: Path) -> None:
+    """Once `c == c` in an update failed gcc (-Wtautological-compare), `(3 <= 1) -> go` and `not go` after a
+    branch on `go` failed cppcheck (knownConditionTrueFalse), and a definition read only by a branch the code
+    leaves out was a C function never called (-Wunused-function)."""
+    body = """
+[definitions]
+high = { expr = "x >= 2", if_invalid = false, doc = "a high sample" }
+
+[[transition]]
+id = "on"
+from = "A"
+to = "B"
+when = "go"
+do = "c = if c == c then 1 else 0"
+
+[[transition]]
+id = "off"
+from = "A"
+to = "C"
+when = "not go and c > 0"
+
+[[transition]]
+id = "always"
+from = "B"
+to = "A"
+when = "(3 <= 1) -> go"
+
+[[transition]]
+id = "shadowed"
+from = "B"
+to = "C"
+when = "high"
+
+[[transition]]
+id = "back"
+from = "C"
+to = "A"
+when = "go or not go"
+"""
+    outcomes = _conform(_spec(tmp_path, body), ["compile", "exhaustive", "sequences", "cppcheck"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
+    source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
+    assert "r_def_high(" not in source and "r_l_high(" in source  # the contracts keep every branch
+    assert "(c->c == c->c)" not in source and "(!i->go) &&" not in source
+
+
+def test_a_choice_between_equal_values_is_that_value() -> None:
+    from mlca_verify.codegen.tidy import tidy
+    from mlca_verify.model import Ite
+
+    d, one = Var("d"), Num(Fraction(1), False)
+    assert tidy(Ite(Cmp("<", d, one), d, d), {"d": "int"}) == d  # cppcheck: duplicateExpressionTernary
+
+
+@pytest.mark.slow
+def test_an_update_that_is_the_every_rule_and_a_helper_only_a_left_out_branch_calls(tmp_path: Path) -> None:
+    """`c = 2` where c's every is 2 once wrote the same assignment in the `if` and the `else` (cppcheck:
+    duplicateBranch); a `max` only in a guard the code leaves out once left the max helper defined and never
+    called (gcc: -Wunused-function)."""
+    body = """
+[[transition]]
+id = "on"
+from = "A"
+to = "B"
+when = "go"
+do = "c = 2"
+
+[[transition]]
+id = "again"
+from = "A"
+to = "C"
+when = "go"
+
+[[transition]]
+id = "never"
+from = "B"
+to = "C"
+when = "max(c, 1) > 5 and (3 <= 1)"
+"""
+    path = _spec(tmp_path, body.replace("[[transition]]", "[[transition]]", 1))
+    text = path.read_text(encoding="utf-8").replace('doc = "a counter" }', 'every = "2", doc = "a counter" }')
+    path.write_text(text, encoding="utf-8")
+    outcomes = _conform(path, ["compile", "exhaustive", "cppcheck"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
+    source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
+    assert "r_max_i(" not in source and "never taken in B: its guard is false as written" in source
+
+
+@pytest.mark.slow
+def test_wp_proves_a_step_whose_range_only_the_runs_keep(tmp_path: Path) -> None:
+    """From B, `c = c + d` would take c past 2 from some contexts in range, but no run reaches B with such a d
+    (d is 0 there): the step requires c's range (in_reach) without ensuring it, and WP proves the rest; the
+    range itself is range:c's, which holds. It once failed WP (the call of prev()'s register on the next
+    context)."""
+    body = """
+[variables.d]
+type = "int"
+initial = 0
+range = [0, 2]
+doc = "zero in B"
+
+[[transition]]
+id = "on"
+from = "A"
+to = "B"
+when = "go"
+do = "d = 0; c = 1"
+
+[[transition]]
+id = "add"
+from = "B"
+to = "A"
+when = "go"
+do = "c = c + d"
+
+[[transition]]
+id = "rest"
+from = "A"
+to = "A"
+when = "not go"
+do = "d = 2; c = 0"
+
+[[invariant]]
+id = "stays"
+expr = "prev(go) or not go"
+"""
+    path = _spec(tmp_path, body)
+    outcomes = _conform(path, ["compile", "frama-c-wp"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
+    wp = outcomes["frama-c-wp"]
+    assert wp.data["certified"]["in_reach"] == ["c"] and "leaves it to the engine's range:c" in wp.detail
+    source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
+    assert "@ requires in_reach: 0 <= c->c <= 2" in source
+
+
+def test_a_machine_without_invariants_gets_a_monitor_call_on_a_state() -> None:
+    from mlca_verify.model import Input, Machine, Transition
+    from mlca_verify.testgen.suite import generate
+    from tests.strategies import HERE
+
+    machine = Machine(
+        name="B",
+        initial="S0",
+        states=("S0",),
+        inputs=(Input("go", "doc", "cite", HERE),),
+        transitions=(Transition("t", None, "S0", Var("go"), "cite", HERE),),
+        semantics="first-match",
+        otherwise="stay",
+        cite="cite",
+    )
+    modes = sorted(int(c.snapshot.after["mode"]) for c in generate(machine).monitor)
+    assert modes == [0, 1]  # the initial state, and a mode that names none

@@ -12,6 +12,8 @@ from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, output_type, real_literal
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
+from mlca_verify.codegen.tidy import known_false, tidy, without_known
+from mlca_verify.logic.kept import kept_ranges
 from mlca_verify.model import (
     Const,
     Expr,
@@ -50,6 +52,7 @@ class Field:
     default: Code | None = None  # a param's default, a variable's initial value
     low: Code | None = None
     high: Code | None = None
+    kept: bool = True  # a variable's range: kept by every step from a context in range (`logic.kept`)
 
 
 @dataclass(frozen=True)
@@ -91,9 +94,9 @@ class Branch:
 class Case:
     """A mode's transitions in priority order. The code writes `code`: the first `written` of them, but for a
     guard that repeats an earlier one of the mode (never taken there: `repeats` names each with the one it
-    repeats). When `closes`, the last written is enabled whenever the ones before it are not (its guard negates an
-    earlier one, or is `true`), so it is the chain's `else` and nothing after it is reachable. The contracts keep
-    every branch."""
+    repeats) or is false as written (`never`). When `closes`, the last written is enabled whenever the ones
+    before it are not (its guard negates an earlier one, or is `true`), so it is the chain's `else` and nothing
+    after it is reachable. The contracts keep every branch."""
 
     state: str
     index: int
@@ -102,6 +105,7 @@ class Case:
     closes: bool = False
     code: tuple[Branch, ...] = ()
     repeats: tuple[tuple[Branch, Branch], ...] = ()
+    never: tuple[Branch, ...] = ()  # a guard its own text makes false (see `tidy`)
 
 
 def closing(guards: Sequence[Expr]) -> int | None:
@@ -119,9 +123,10 @@ def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence
     written = len(branches) if last is None else last + 1
     first = {g: branches[k] for k, g in reversed(list(enumerate(guards[:written])))}
     repeats = tuple((b, first[g]) for b, g in zip(branches[:written], guards, strict=False) if first[g] is not b)
-    shadowed = {id(b) for b, _ in repeats}
-    code = tuple(b for b in branches[:written] if id(b) not in shadowed)
-    return Case(state, index, branches, written, last is not None, code, repeats)
+    never = tuple(b for b, g in zip(branches[:written], guards, strict=False) if g == Const(False))
+    left_out = {id(b) for b, _ in repeats} | {id(b) for b in never}
+    code = tuple(b for b in branches[:written] if id(b) not in left_out)
+    return Case(state, index, branches, written, last is not None, code, repeats, never)
 
 
 @dataclass(frozen=True)
@@ -189,6 +194,8 @@ class DataIR:
     helpers: frozenset[str] = frozenset()  # the C helpers the code calls: min_d, max_i, div, ...
     shapes: tuple[SharedShape, ...] = ()
     used: frozenset[str] = frozenset()  # the definitions whose functions the code calls
+    logic: frozenset[str] = frozenset()  # those the contracts read too (a branch the code leaves out included)
+    logic_shapes: tuple[SharedShape, ...] = ()  # the shared rules of `logic`
     guards: tuple[Code, ...] = ()  # of each transition, by its number from 1
     rounded: tuple[Rounded, ...] = ()  # the parts that compute on reals, each a function (see `rounded`)
 
@@ -243,20 +250,22 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         )
 
     shapes, uses = shared_shapes(m)
+    keeps = kept_ranges(m)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
-    cases = tuple(
-        _case(
-            s,
-            k,
-            tuple(
-                Branch(numbers[t.id], t.id, t.target, stated(t.guard, "bool"), t.cite)
-                for t in m.transitions
-                if t.applies_to(s)
-            ),
-            [t.guard for t in m.transitions if t.applies_to(s)],
-        )
-        for k, s in enumerate(m.states)
-    )
+
+    def chain(state: str, index: int) -> Case:
+        """The mode's branches, each guard written without what the earlier guards' being false decides."""
+        known: list[Expr] = []
+        branches, guards = [], []
+        for t in m.outgoing(state):
+            guard = tidy(without_known(t.guard, known), names.types)
+            code = replace(stated(guard, "bool"), text=show(t.guard))
+            branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite))
+            guards.append(guard)
+            known += known_false(t.guard)
+        return _case(state, index, tuple(branches), guards)
+
+    cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     updates = tuple(
         Update(
             v.name,
@@ -265,7 +274,7 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
                 (numbers[t.id], stated(u.expr, v.type))
                 for t in m.transitions
                 for u in t.updates
-                if u.variable == v.name
+                if u.variable == v.name and u.expr != (v.every or Var(v.name))  # else: what the step does anyway
             ),
             stated(v.every, v.type) if v.every is not None else None,
         )
@@ -286,7 +295,12 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
         signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
         params=tuple(number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
-        variables=tuple(number_field(v, v.type, v.range, default=_literal(v.initial, v.type)) for v in m.variables),
+        variables=tuple(
+            number_field(
+                v, v.type, v.range, default=_literal(v.initial, v.type), kept=v.name in keeps or v.type != "int"
+            )
+            for v in m.variables
+        ),
         definitions=tuple(_definition(d, c, py, logic, uses.get(d.name)) for d in m.definitions),
         shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
@@ -312,18 +326,34 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             for p in parts
         ),
     )
-    text = repr(replace(ir, definitions=()))
-    used: set[str] = set()
-    todo = [d.name for d in ir.definitions if f"{module}_def_{d.name}(" in text]
-    while todo:  # a called definition's body may call others
+    written = tuple(replace(case, branches=case.code, repeats=(), never=()) for case in ir.cases)
+    in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts
+    used = _called(ir, repr(replace(in_code, definitions=())))
+    contracts = _called(ir, repr(replace(ir, definitions=())))  # by the code or the contracts (every branch)
+    code_shapes = tuple(sh for sh in ir.shapes if set(sh.users) & used)
+    text = repr(replace(in_code, definitions=tuple(d for d in ir.definitions if d.name in used), shapes=code_shapes))
+    helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in text)
+    return replace(
+        ir,
+        helpers=helpers,
+        used=used,
+        logic=contracts,
+        shapes=code_shapes,
+        logic_shapes=tuple(sh for sh in ir.shapes if set(sh.users) & contracts),
+    )
+
+
+def _called(ir: DataIR, text: str) -> frozenset[str]:
+    """The definitions whose functions `text` calls, and those their bodies call."""
+    called: set[str] = set()
+    todo = [d.name for d in ir.definitions if f"{ir.module}_def_{d.name}(" in text]
+    while todo:
         name = todo.pop()
-        if name not in used:
-            used.add(name)
+        if name not in called:
+            called.add(name)
             body = next(d.code.c for d in ir.definitions if d.name == name)
-            todo += [d.name for d in ir.definitions if f"{module}_def_{d.name}(" in body]
-    helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in repr(ir))
-    kept = tuple(sh for sh in ir.shapes if set(sh.users) & used)
-    return replace(ir, helpers=helpers, used=frozenset(used), shapes=kept)
+            todo += [d.name for d in ir.definitions if f"{ir.module}_def_{d.name}(" in body]
+    return frozenset(called)
 
 
 def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:

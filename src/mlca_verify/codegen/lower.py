@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
 
+from mlca_verify.codegen.tidy import tidy
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -112,6 +113,9 @@ class Lowering:
         """The expression, fully parenthesised (no precedence to get wrong in either language)."""
         if self.calls and id(e) in self.calls:
             return self.calls[id(e)]
+        tidied = tidy(e, self.n.types)  # code and contracts from what the conditions leave undecided (`tidy`)
+        if tidied is not e:
+            return self.go(tidied, prevs)
         c = self.lang == "c"
         if isinstance(e, Const):
             return ("true" if e.value else "false") if c else ("True" if e.value else "False")

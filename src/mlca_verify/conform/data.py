@@ -34,6 +34,7 @@ from mlca_verify.logic.datachecks import check_data_machine
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.replay64 import Binary64
 from mlca_verify.logic.replay64 import Value as Value64
+from mlca_verify.logic.results import Result
 from mlca_verify.logic.symbolic import System, python_value, value_of
 from mlca_verify.model import Machine, Type, prevs_of
 from mlca_verify.targets import import_generated
@@ -630,7 +631,30 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
     )
     if unproved:
         detail += f"; not stated: {', '.join(unproved)}" + (f" ({'; '.join(data['left'])})" if left else "")
-    return CheckOutcome("frama-c-wp", ran.ok, detail, data=data)
+    reached, unkept = _reached_ranges(t, results)
+    data["in_reach"] = reached
+    return CheckOutcome("frama-c-wp", ran.ok and not unkept, detail + unkept_detail(reached, unkept), data=data)
+
+
+def _reached_ranges(t: DataTarget, results: Sequence[Result]) -> tuple[list[str], list[str]]:
+    """The variables whose range the step's contract requires without ensuring it (one step does not keep it from
+    every context in range), and those of them whose range:<name> the engine does not prove for every param."""
+    verdicts = {r.prop: r.verdict for r in results}
+    reached = [f.name for f in t.ir.variables if not f.kept]
+    return reached, [n for n in reached if verdicts.get(f"range:{n}") != "holds"]
+
+
+def unkept_detail(reached: Sequence[str], unkept: Sequence[str]) -> str:
+    if not reached:
+        return ""
+    text = (
+        f"; the range of {', '.join(reached)} is kept only from the contexts a run reaches, so the step requires "
+        f"it (in_reach) and leaves it to the engine's {', '.join(f'range:{n}' for n in reached)}"
+    )
+    if unkept:
+        listed = ", ".join(f"range:{n}" for n in unkept)
+        text += f", but {listed} does not hold for every param in range (`mlca-verify check --parametric`)"
+    return text
 
 
 def binary64_goals(ir: DataIR) -> list[str]:

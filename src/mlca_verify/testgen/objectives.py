@@ -16,7 +16,7 @@ change the outcome (masking).
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Literal
 
@@ -229,12 +229,32 @@ def invariant_decisions(machine: Machine) -> Iterator[Decision]:
 
 
 def decisions(machine: Machine) -> list[Decision]:
-    return [
+    found = [
         *guard_decisions(machine),
         *definition_decisions(machine),
         *choice_decisions(machine),
         *invariant_decisions(machine),
     ]
+    if not machine.has_data:
+        return found
+    return [replace(d, expr=per_mode(d.expr)) for d in found]
+
+
+def per_mode(expr: Expr) -> Expr:
+    """`state in {A, B}` as the C of a machine with data tests it, one mode at a time (`mode == A || mode == B`),
+    so that each test is a condition of its own, as gcc's MC/DC counts it."""
+    if isinstance(expr, StateIn) and len(expr.states) > 1:
+        split: Expr = StateIn(expr.states[:1])
+        for state in expr.states[1:]:
+            split = BinOp("or", split, StateIn((state,)))
+        return split
+    if isinstance(expr, Not):
+        arg = per_mode(expr.arg)
+        return expr if arg is expr.arg else Not(arg)
+    if isinstance(expr, BinOp):
+        left, right = per_mode(expr.left), per_mode(expr.right)
+        return expr if (left, right) == (expr.left, expr.right) else BinOp(expr.op, left, right)
+    return expr
 
 
 def objectives(machine: Machine) -> list[Objective]:

@@ -159,15 +159,19 @@ def generate(machine: Machine, depth: int = DEPTH) -> Suite:
     monitor = monitor_cases(pairs)
     if not machine.has_data and not any(int(c.snapshot.after["mode"]) >= len(machine.states) for c in monitor):
         monitor.append(invalid_mode_case(machine, len(monitor) + 1))
+    if not machine.has_data and not any(int(c.snapshot.after["mode"]) < len(machine.states) for c in monitor):
+        monitor.append(invalid_mode_case(machine, len(monitor) + 1, valid=True))
     return Suite(machine, cases, monitor, pairs, param_cases(machine), depth, unvisited)
 
 
-def invalid_mode_case(machine: Machine, number: int) -> MonitorCase:
+def invalid_mode_case(machine: Machine, number: int, valid: bool = False) -> MonitorCase:
     """A monitor call on a mode that names no state, which the monitor's own validity gate reports before any
     invariant (an invariant that lists every state, like MLCA's A1, gets such a call from its pairs; a machine
-    without one needs this call for the gate's code to be run)."""
-    before: dict[str, bool | int | float] = {"mode": machine.states.index(machine.initial), "first": False}
-    after: dict[str, bool | int | float] = {"mode": len(machine.states), "first": False}
+    without one needs this call for the gate's code to be run); with `valid`, on the initial state instead (a
+    machine without invariants has no other call that passes the gate)."""
+    initial = machine.states.index(machine.initial)
+    before: dict[str, bool | int | float] = {"mode": initial, "first": False}
+    after: dict[str, bool | int | float] = {"mode": initial if valid else len(machine.states), "first": False}
     shot = Snapshot(before, after, {i: False for i in machine.input_names}, {}, ())
     return MonitorCase(f"m{number:03d}", shot, ("state-range",))
 
