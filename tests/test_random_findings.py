@@ -351,3 +351,53 @@ def test_a_machine_without_invariants_gets_a_monitor_call_on_a_state() -> None:
     )
     modes = sorted(int(c.snapshot.after["mode"]) for c in generate(machine).monitor)
     assert modes == [0, 1]  # the initial state, and a mode that names none
+
+
+def test_the_ranges_one_step_keeps_from_every_context_in_range(tmp_path: Path) -> None:
+    """c's range is kept only because no run reaches B with d > 0 (one step from B with d = 2 and c = 2 leaves
+    it); d's and the counter's own are kept by every step. The independent check: every context in range and
+    every input, stepped by the explicit replay of the spec."""
+    from itertools import product
+
+    from mlca_verify.logic.kept import kept_ranges
+    from mlca_verify.logic.replay64 import Binary64
+
+    body = """
+[variables.d]
+type = "int"
+initial = 0
+range = [0, 2]
+doc = "zero in B"
+
+[[transition]]
+from = "A"
+to = "B"
+when = "go"
+do = "d = 0; c = 1"
+
+[[transition]]
+from = "B"
+to = "A"
+when = "go"
+do = "c = c + d"
+"""
+    machine = load_spec(_spec(tmp_path, body)).machine
+    kept = kept_ranges(machine)
+    assert kept == frozenset({"d"})
+    replay = Binary64(machine)
+    leaves = set()
+    for mode, c, d, go, x in product(machine.states, range(3), range(3), (False, True), range(-1, 5)):
+        _, _, after = replay.step(mode, {"c": c, "d": d, "go": go, "x": x})
+        leaves |= {n for n in ("c", "d") if not 0 <= after[n] <= 2}
+    assert leaves == {"c"}
+
+
+def test_a_side_that_holds_the_other_absorbs_it() -> None:
+    from mlca_verify.codegen.tidy import tidy
+    from mlca_verify.model import BinOp
+
+    a, b = Var("a"), Var("b")
+    types = {"a": "bool", "b": "bool"}
+    assert tidy(BinOp("or", a, BinOp("and", a, b)), types) == a  # cppcheck: redundantCondition
+    assert tidy(BinOp("and", BinOp("or", b, a), a), types) == a
+    assert tidy(BinOp("or", a, BinOp("and", b, b)), types) == BinOp("or", a, b)

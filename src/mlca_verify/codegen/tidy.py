@@ -1,10 +1,11 @@
 """Conditions as the code writes them: what a condition's own text decides, decided before it reaches C.
 
 A spec may hold a comparison of two constants (`3 <= 1`), a comparison or connective whose two sides are the same
-expression (`d == d`, `far -> far`) or one side's negation (`a or not a`), a constant that reaches a connective
-or a choice, or a choice between two equal values. The spec means what it says, and every engine reads it as
-written; but C that tests a condition whose outcome its text fixes is refused by gcc (-Wtautological-compare)
-and by cppcheck (knownConditionTrueFalse, duplicateExpression, oppositeExpression, duplicateExpressionTernary).
+expression (`d == d`, `far -> far`) or one side's negation (`a or not a`), one side holding the other
+(`a or (a and b)`), a constant that reaches a connective or a choice, or a choice between two equal values. The
+spec means what it says, and every engine reads it as written; but C that tests a condition whose outcome its
+text fixes is refused by gcc (-Wtautological-compare) and by cppcheck (knownConditionTrueFalse,
+duplicateExpression, oppositeExpression, redundantCondition, duplicateExpressionTernary).
 So the code, and the contracts WP proves it against, are written from the condition with those parts decided:
 the same value at every step, in exact arithmetic. Comparisons of reals are kept as written (binary64 compares
 a NaN with itself as unequal). Nodes that nothing changes are the spec's own objects, so what is keyed by a
@@ -16,19 +17,11 @@ dropped too (`not b` after a branch on `b`): `known_false` and `without_known`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from fractions import Fraction
+from collections.abc import Mapping
 
+from mlca_verify.logic.concrete import COMPARE
 from mlca_verify.model import BinOp, Cmp, Const, Expr, Ite, Not, Num, Type, type_of
 
-_COMPARE: dict[str, Callable[[Fraction, Fraction], bool]] = {
-    "<": lambda a, b: a < b,
-    "<=": lambda a, b: a <= b,
-    ">": lambda a, b: a > b,
-    ">=": lambda a, b: a >= b,
-    "==": lambda a, b: a == b,
-    "!=": lambda a, b: a != b,
-}
 TRUE, FALSE = Const(True), Const(False)
 
 
@@ -42,6 +35,12 @@ def _negated(e: Expr) -> Expr:
     return e.arg if isinstance(e, Not) else Not(e)
 
 
+def _absorbs(op: str, this: Expr, other: Expr) -> bool:
+    """`this op other` is `this`: `other` is a conjunction (for `or`; a disjunction for `and`) holding `this`."""
+    inner = "and" if op == "or" else "or"
+    return isinstance(other, BinOp) and other.op == inner and this in (other.left, other.right)
+
+
 def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
     """`left op right` with what its sides decide taken out."""
     if left == right or _opposite(left, right):
@@ -53,6 +52,8 @@ def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
             "<->": TRUE if same else FALSE,
         }[e.op]
     for this, other, this_left in ((left, right, True), (right, left, False)):
+        if e.op in ("and", "or") and _absorbs(e.op, this, other):  # a or (a and b) is a; a and (a or b) is a
+            return this
         if isinstance(this, Const):
             if e.op == "and":
                 return other if this.value else FALSE
@@ -70,7 +71,7 @@ def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
 
 def _comparison(e: Cmp, types: Mapping[str, Type]) -> Expr:
     if isinstance(e.left, Num) and isinstance(e.right, Num):
-        return Const(_COMPARE[e.op](e.left.value, e.right.value))
+        return Const(COMPARE[e.op](e.left.value, e.right.value))
     exact = "real" not in (type_of(e.left, types), type_of(e.right, types))
     if exact and e.left == e.right:
         return Const(e.op in ("==", "<=", ">="))

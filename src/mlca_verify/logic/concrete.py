@@ -77,7 +77,7 @@ def _divide(a: Value, b: Value) -> Value:
     return Fraction(a) / Fraction(b)
 
 
-_CMP: dict[str, Callable[[Value, Value], bool]] = {
+COMPARE: dict[str, Callable[[Value, Value], bool]] = {  # each comparison of the spec, exactly
     "<": lambda a, b: a < b,
     "<=": lambda a, b: a <= b,
     ">": lambda a, b: a > b,
@@ -195,7 +195,7 @@ class Compiler:
             cond, then, other = self.compile(expr.cond), self.coerced(expr.then, kind), self.coerced(expr.other, kind)
             return lambda e: then(e) if cond(e) else other(e)
         if isinstance(expr, Cmp):
-            left, right, test = self.compile(expr.left), self.compile(expr.right), _CMP[expr.op]
+            left, right, test = self.compile(expr.left), self.compile(expr.right), COMPARE[expr.op]
             return lambda e: test(left(e), right(e))
         if isinstance(expr, Call):
             return self.call(expr, kind)
