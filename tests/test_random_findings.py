@@ -287,13 +287,8 @@ when = "max(c, 1) > 5 and (3 <= 1)"
     assert "r_max_i(" not in source and "never taken in B: its guard is false as written" in source
 
 
-@pytest.mark.slow
-def test_wp_proves_a_step_whose_range_only_the_runs_keep(tmp_path: Path) -> None:
-    """From B, `c = c + d` would take c past 2 from some contexts in range, but no run reaches B with such a d
-    (d is 0 there): the step requires c's range (in_reach) without ensuring it, and WP proves the rest; the
-    range itself is range:c's, which holds. It once failed WP (the call of prev()'s register on the next
-    context)."""
-    body = """
+# c = c + d from B would leave c's range from contexts in range, but no run reaches B with d > 0: d is 0 there
+REACHED_ONLY = """
 [variables.d]
 type = "int"
 initial = 0
@@ -325,7 +320,15 @@ do = "d = 2; c = 0"
 id = "stays"
 expr = "prev(go) or not go"
 """
-    path = _spec(tmp_path, body)
+
+
+@pytest.mark.slow
+def test_wp_proves_a_step_whose_range_only_the_runs_keep(tmp_path: Path) -> None:
+    """From B, `c = c + d` would take c past 2 from some contexts in range, but no run reaches B with such a d
+    (d is 0 there): the step requires c's range (in_reach) without ensuring it, and WP proves the rest; the
+    range itself is range:c's, which holds. It once failed WP (the call of prev()'s register on the next
+    context)."""
+    path = _spec(tmp_path, REACHED_ONLY)
     outcomes = _conform(path, ["compile", "frama-c-wp"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
     wp = outcomes["frama-c-wp"]
@@ -362,26 +365,7 @@ def test_the_ranges_one_step_keeps_from_every_context_in_range(tmp_path: Path) -
     from mlca_verify.logic.kept import kept_ranges
     from mlca_verify.logic.replay64 import Binary64
 
-    body = """
-[variables.d]
-type = "int"
-initial = 0
-range = [0, 2]
-doc = "zero in B"
-
-[[transition]]
-from = "A"
-to = "B"
-when = "go"
-do = "d = 0; c = 1"
-
-[[transition]]
-from = "B"
-to = "A"
-when = "go"
-do = "c = c + d"
-"""
-    machine = load_spec(_spec(tmp_path, body)).machine
+    machine = load_spec(_spec(tmp_path, REACHED_ONLY)).machine
     kept = kept_ranges(machine)
     assert kept == frozenset({"d"})
     replay = Binary64(machine)

@@ -13,7 +13,6 @@ from collections.abc import Mapping
 from fractions import Fraction
 
 from mlca_verify.codegen.lower import Lowering, Names, names_of, real_literal
-from mlca_verify.codegen.tidy import tidy
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -65,12 +64,7 @@ class AcslLowering(Lowering):
         """The arguments of a definition's logic function."""
         return f"{i}, {p}" if definition in self.free else f"{c}, {i}, {p}"
 
-    def go(self, e: Expr, prevs: Mapping[Prev, str] | None = None) -> str:
-        if self.calls and id(e) in self.calls:
-            return self.calls[id(e)]
-        tidied = tidy(e, self.n.types)  # as the code is written (see `tidy`): the same value, fewer goals for WP
-        if tidied is not e:
-            return self.go(tidied, prevs)
+    def text(self, e: Expr, prevs: Mapping[Prev, str] | None) -> str:
         if isinstance(e, Const):
             return "\\true" if e.value else "\\false"
         if isinstance(e, Num):

@@ -103,9 +103,13 @@ class Case:
     branches: tuple[Branch, ...]
     written: int = 0
     closes: bool = False
-    code: tuple[Branch, ...] = ()
     repeats: tuple[tuple[Branch, Branch], ...] = ()
     never: tuple[Branch, ...] = ()  # a guard its own text makes false (see `tidy`)
+
+    @property
+    def code(self) -> tuple[Branch, ...]:
+        left_out = {id(b) for b, _ in self.repeats} | {id(b) for b in self.never}
+        return tuple(b for b in self.branches[: self.written] if id(b) not in left_out)
 
 
 def closing(guards: Sequence[Expr]) -> int | None:
@@ -124,9 +128,7 @@ def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence
     first = {g: branches[k] for k, g in reversed(list(enumerate(guards[:written])))}
     repeats = tuple((b, first[g]) for b, g in zip(branches[:written], guards, strict=False) if first[g] is not b)
     never = tuple(b for b, g in zip(branches[:written], guards, strict=False) if g == Const(False))
-    left_out = {id(b) for b, _ in repeats} | {id(b) for b in never}
-    code = tuple(b for b in branches[:written] if id(b) not in left_out)
-    return Case(state, index, branches, written, last is not None, code, repeats, never)
+    return Case(state, index, branches, written, last is not None, repeats, never)
 
 
 @dataclass(frozen=True)
@@ -326,7 +328,9 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             for p in parts
         ),
     )
-    written = tuple(replace(case, branches=case.code, repeats=(), never=()) for case in ir.cases)
+    written = tuple(
+        replace(case, branches=case.code, written=len(case.code), repeats=(), never=()) for case in ir.cases
+    )
     in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts
     used = _called(ir, repr(replace(in_code, definitions=())))
     contracts = _called(ir, repr(replace(ir, definitions=())))  # by the code or the contracts (every branch)

@@ -110,12 +110,16 @@ class Lowering:
     # --- text ----------------------------------------------------------------------------------------
 
     def go(self, e: Expr, prevs: Mapping[Prev, str] | None = None) -> str:
-        """The expression, fully parenthesised (no precedence to get wrong in either language)."""
+        """The expression, fully parenthesised (no precedence to get wrong in either language): read through
+        the function that computes it where `calls` has one, and written from what its conditions leave
+        undecided (see `tidy`; the contracts too, so that WP meets the code's own terms)."""
         if self.calls and id(e) in self.calls:
             return self.calls[id(e)]
-        tidied = tidy(e, self.n.types)  # code and contracts from what the conditions leave undecided (`tidy`)
-        if tidied is not e:
-            return self.go(tidied, prevs)
+        tidied = tidy(e, self.n.types)
+        return self.go(tidied, prevs) if tidied is not e else self.text(e, prevs)
+
+    def text(self, e: Expr, prevs: Mapping[Prev, str] | None) -> str:
+        """`e`'s own node in the language, its parts through `go`."""
         c = self.lang == "c"
         if isinstance(e, Const):
             return ("true" if e.value else "false") if c else ("True" if e.value else "False")

@@ -10,6 +10,7 @@ the code against contracts written with the spec's full guards.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import z3
 
@@ -24,13 +25,22 @@ def conjuncts(expr: Expr) -> list[Expr]:
     return [expr]
 
 
-def conjoin(parts: list[Expr]) -> Expr:
+def _joined(op: Literal["and", "or"], parts: list[Expr]) -> Expr:
+    """The parts joined by `op`, left to right; with none, its unit (true for `and`, false for `or`)."""
     if not parts:
-        return Const(True)
+        return Const(op == "and")
     result = parts[0]
     for part in parts[1:]:
-        result = BinOp("and", result, part)
+        result = BinOp(op, result, part)
     return result
+
+
+def conjoin(parts: list[Expr]) -> Expr:
+    return _joined("and", parts)
+
+
+def disjoin(parts: list[Expr]) -> Expr:
+    return _joined("or", parts)
 
 
 def fold(expr: Expr, solver: Solver) -> Expr:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+from mlca_verify.codegen.simplify import conjoin, conjuncts
 from mlca_verify.logic.concrete import COMPARE
 from mlca_verify.model import BinOp, Cmp, Const, Expr, Ite, Not, Num, Type, type_of
 
@@ -97,10 +98,6 @@ def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
     return e
 
 
-def conjuncts(e: Expr) -> list[Expr]:
-    return conjuncts(e.left) + conjuncts(e.right) if isinstance(e, BinOp) and e.op == "and" else [e]
-
-
 def known_false(guard: Expr) -> list[Expr]:
     """What holds once `guard` is false: its negation, and each disjunct's (a false `a or b` is `not a`,
     `not b`; a false `not (a and b)` makes `a` and `b` true)."""
@@ -113,10 +110,6 @@ def known_false(guard: Expr) -> list[Expr]:
 
 def without_known(guard: Expr, known: list[Expr]) -> Expr:
     """`guard` without the conjuncts `known` holds (true if none is left)."""
-    kept = [c for c in conjuncts(guard) if c not in known]
-    if len(kept) == len(conjuncts(guard)):
-        return guard
-    result: Expr = kept[0] if kept else TRUE
-    for part in kept[1:]:
-        result = BinOp("and", result, part)
-    return result
+    parts = conjuncts(guard)
+    kept = [c for c in parts if c not in known]
+    return guard if len(kept) == len(parts) else conjoin(kept)

@@ -633,7 +633,7 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
         detail += f"; not stated: {', '.join(unproved)}" + (f" ({'; '.join(data['left'])})" if left else "")
     reached, unkept = _reached_ranges(t, results)
     data["in_reach"] = reached
-    return CheckOutcome("frama-c-wp", ran.ok and not unkept, detail + unkept_detail(reached, unkept), data=data)
+    return CheckOutcome("frama-c-wp", ran.ok and not unkept, detail + _unkept_detail(reached, unkept), data=data)
 
 
 def _reached_ranges(t: DataTarget, results: Sequence[Result]) -> tuple[list[str], list[str]]:
@@ -644,7 +644,7 @@ def _reached_ranges(t: DataTarget, results: Sequence[Result]) -> tuple[list[str]
     return reached, [n for n in reached if verdicts.get(f"range:{n}") != "holds"]
 
 
-def unkept_detail(reached: Sequence[str], unkept: Sequence[str]) -> str:
+def _unkept_detail(reached: Sequence[str], unkept: Sequence[str]) -> str:
     if not reached:
         return ""
     text = (

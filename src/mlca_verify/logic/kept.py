@@ -14,17 +14,10 @@ from dataclasses import replace
 import z3
 
 from mlca_verify.logic.solver import budget
-from mlca_verify.logic.symbolic import Frame, System, value_of
+from mlca_verify.logic.symbolic import System, variable_bounds
 from mlca_verify.model import Machine
 
 KEPT_BUDGET_MS = 2_000  # in z3's resource units (see `solver.budget`): an answer not found within it is "not kept"
-
-
-def _in_range(system: System, frame: Frame, name: str) -> z3.BoolRef:
-    v = next(v for v in system.m.variables if v.name == name)
-    assert v.range is not None
-    x = frame.variables[name]
-    return z3.And(x >= value_of(v.range[0], v.type), x <= value_of(v.range[1], v.type))
 
 
 def kept_ranges(machine: Machine) -> frozenset[str]:
@@ -37,5 +30,8 @@ def kept_ranges(machine: Machine) -> frozenset[str]:
     link, _ = system.step(pre, inputs, post)
     solver = z3.Solver()
     budget(solver, KEPT_BUDGET_MS)
-    solver.add(link, system.well_formed(pre), *(_in_range(system, pre, n) for n in ranged))
-    return frozenset(n for n in ranged if solver.check(z3.Not(_in_range(system, post, n))) == z3.unsat)
+    solver.add(link, system.well_formed(pre), *variable_bounds(machine, pre.variables, ranged))
+    kept = (
+        n for n in ranged if solver.check(z3.Not(z3.And(*variable_bounds(machine, post.variables, [n])))) == z3.unsat
+    )
+    return frozenset(kept)

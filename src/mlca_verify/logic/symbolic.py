@@ -133,11 +133,15 @@ class StepTerms:
     post: Valuation
 
 
-def variable_bounds(machine: Machine, variables: Mapping[str, z3.ExprRef]) -> list[z3.BoolRef]:
-    """Each variable with a declared range within it (the range checks prove that of every reachable context)."""
+def variable_bounds(
+    machine: Machine, variables: Mapping[str, z3.ExprRef], names: Iterable[str] | None = None
+) -> list[z3.BoolRef]:
+    """Each variable with a declared range (of `names`, when given) within it (the range checks prove that of
+    every reachable context)."""
     bounds: list[z3.BoolRef] = []
+    chosen = None if names is None else set(names)
     for v in machine.variables:
-        if v.range is not None:
+        if v.range is not None and (chosen is None or v.name in chosen):
             term = variables[v.name]
             bounds += [term >= value_of(v.range[0], v.type), term <= value_of(v.range[1], v.type)]
     return bounds

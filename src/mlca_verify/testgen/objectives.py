@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Literal
 
-from mlca_verify.codegen.simplify import conjoin
+from mlca_verify.codegen.simplify import conjoin, disjoin
 from mlca_verify.errors import Loc
 from mlca_verify.model import (
     IN_MEMORY,
@@ -168,14 +168,12 @@ def choice_decisions(machine: Machine) -> Iterator[Decision]:
 
 def _fires(machine: Machine, t: Transition) -> Expr:
     """`t` fires: in a mode it leaves, its guard holds and the earlier guards of that mode do not."""
-    fired: Expr = Const(False)
+    ways: list[Expr] = []
     for state in machine.states:
         if t.applies_to(state):
             out = machine.outgoing(state)
-            earlier = [Not(e.guard) for e in out[: out.index(t)]]
-            way = conjoin([StateIn((state,)), *earlier, t.guard])
-            fired = way if fired == Const(False) else BinOp("or", fired, way)
-    return fired
+            ways.append(conjoin([StateIn((state,)), *(Not(e.guard) for e in out[: out.index(t)]), t.guard]))
+    return disjoin(ways)
 
 
 def _no_update(machine: Machine, variable: str) -> tuple[Expr, ...]:
@@ -244,10 +242,7 @@ def per_mode(expr: Expr) -> Expr:
     """`state in {A, B}` as the C of a machine with data tests it, one mode at a time (`mode == A || mode == B`),
     so that each test is a condition of its own, as gcc's MC/DC counts it."""
     if isinstance(expr, StateIn) and len(expr.states) > 1:
-        split: Expr = StateIn(expr.states[:1])
-        for state in expr.states[1:]:
-            split = BinOp("or", split, StateIn((state,)))
-        return split
+        return disjoin([StateIn((state,)) for state in expr.states])
     if isinstance(expr, Not):
         arg = per_mode(expr.arg)
         return expr if arg is expr.arg else Not(arg)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from mlca_verify.codegen.simplify import conjoin
+from mlca_verify.codegen.simplify import conjoin, disjoin
 from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
 
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
@@ -45,13 +45,6 @@ def condition_paths(expr: Expr, along: Path = ()) -> list[Path]:
     return [along]
 
 
-def _any(parts: list[Expr]) -> Expr:
-    whole = parts[0]
-    for p in parts[1:]:
-        whole = BinOp("or", whole, p)
-    return whole
-
-
 def _reads(expr: Expr | None, name: str) -> bool:
     return expr is not None and any(isinstance(n, Var) and n.name == name for n in nodes(expr))
 
@@ -70,7 +63,7 @@ def read_context(machine: Machine, name: str, checks: dict[str, Expr | None]) ->
             parts += [conjoin([StateIn((state,)), *earlier, *p]) for p in paths(t.guard, name)]
             earlier.append(Not(t.guard))
     parts += _through_definitions(machine, name, checks, read_context)
-    return _any(parts) if parts else None
+    return disjoin(parts) if parts else None
 
 
 Context = Callable[[Machine, str, dict[str, Expr | None]], Expr | None]
@@ -106,4 +99,4 @@ def read_after_context(machine: Machine, name: str, checks: dict[str, Expr | Non
         return None
     parts = [conjoin(list(p)) for inv in machine.invariants for p in paths(inv.expr, name)]
     parts += _through_definitions(machine, name, checks, read_after_context)
-    return _any(parts) if parts else None
+    return disjoin(parts) if parts else None
