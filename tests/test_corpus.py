@@ -112,8 +112,9 @@ def test_the_suite_of_a_corpus_machine_leaves_no_gap_without_a_reason(
 def test_wp_proves_the_step_and_the_certified_invariants_of_a_timer_machine(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """The 10 Hz crossing's step (its existential needed the transition as witness) and its request-kept
-    invariant with its certificate (which holds on contexts whose mode is a state, not after a reset)."""
+    """The 10 Hz crossing's step (proved against the spec's first enabled transition, a logic function) and its
+    request-kept invariant with its certificate (which holds on contexts whose mode is a state, not after a
+    reset)."""
     spec = ROOT / "tests" / "machines" / "crossing_10hz.toml"
     generated = tmp_path / "gen"
     assert main(["gen", "--out", str(generated), str(spec)]) == 0

@@ -49,35 +49,35 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @   ((c.mode == MLCA_T_IDLE) || (c.mode == MLCA_T_WAITING));
   @*/
 /* when1: reset */
-/*@ predicate mlca_t_when1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when1(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   (!(i.N != 0));
   @*/
 /* when2: urgent_left */
-/*@ predicate mlca_t_when2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((i.U != 0) && mlca_t_l_L(i, p));
   @*/
 /* when3: urgent_right */
-/*@ predicate mlca_t_when3(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when3(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((i.U != 0) && mlca_t_l_R(i, p));
   @*/
 /* when4: idle_wait */
-/*@ predicate mlca_t_when4(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when4(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   (!(i.U != 0));
   @*/
 /* when5: wait_left */
-/*@ predicate mlca_t_when5(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when5(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((!mlca_t_l_W(c, i, p)) && mlca_t_l_L(i, p));
   @*/
 /* when6: wait_right */
-/*@ predicate mlca_t_when6(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when6(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   ((!mlca_t_l_W(c, i, p)) && mlca_t_l_R(i, p));
   @*/
 /* when7: left_abort */
-/*@ predicate mlca_t_when7(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when7(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   (!mlca_t_l_L(i, p));
   @*/
 /* when8: right_abort */
-/*@ predicate mlca_t_when8(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+/*@ logic boolean mlca_t_when8(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   (!mlca_t_l_R(i, p));
   @*/
 /* mlca_t_<STATE>__none_<k>: in that mode, none of its first k transitions is enabled (first-match, in priority
@@ -121,26 +121,27 @@ static double mlca_t_div(double a, double b) { return a / b; }
 /*@ predicate mlca_t_MOVING_RIGHT__none_2(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
   @   mlca_t_MOVING_RIGHT__none_1(c, i, p) && !mlca_t_when8(c, i, p);
   @*/
-/* mlca_t_fires_<MODE>(c, i, p, k): in that mode, k is the transition that fires, by its number (0: none) */
-/*@ predicate mlca_t_fires_IDLE(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
-  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when2(c, i, p) ? k == 2 : mlca_t_when3(c, i, p) ? k == 3 : mlca_t_when4(c, i, p) ? k == 4 : k == 0;
+/* mlca_t_first_<MODE>(c, i, p): in that mode, the transition that fires, by its number (0: none) */
+/*@ logic integer mlca_t_first_IDLE(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_when1(c, i, p) ? 1 : mlca_t_when2(c, i, p) ? 2 : mlca_t_when3(c, i, p) ? 3 : mlca_t_when4(c, i, p) ? 4 : 0;
   @*/
-/*@ predicate mlca_t_fires_WAITING(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
-  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when2(c, i, p) ? k == 2 : mlca_t_when3(c, i, p) ? k == 3 : mlca_t_when5(c, i, p) ? k == 5 : mlca_t_when6(c, i, p) ? k == 6 : k == 0;
+/*@ logic integer mlca_t_first_WAITING(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_when1(c, i, p) ? 1 : mlca_t_when2(c, i, p) ? 2 : mlca_t_when3(c, i, p) ? 3 : mlca_t_when5(c, i, p) ? 5 : mlca_t_when6(c, i, p) ? 6 : 0;
   @*/
-/*@ predicate mlca_t_fires_MOVING_LEFT(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
-  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when7(c, i, p) ? k == 7 : k == 0;
+/*@ logic integer mlca_t_first_MOVING_LEFT(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_when1(c, i, p) ? 1 : mlca_t_when7(c, i, p) ? 7 : 0;
   @*/
-/*@ predicate mlca_t_fires_MOVING_RIGHT(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
-  @   mlca_t_when1(c, i, p) ? k == 1 : mlca_t_when8(c, i, p) ? k == 8 : k == 0;
+/*@ logic integer mlca_t_first_MOVING_RIGHT(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   mlca_t_when1(c, i, p) ? 1 : mlca_t_when8(c, i, p) ? 8 : 0;
   @*/
-/* mlca_t_fires(c, i, p, k): k is the transition that fires (-1: the mode is not a state) */
-/*@ predicate mlca_t_fires(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, integer k) =
-  @   c.mode == MLCA_T_IDLE ? mlca_t_fires_IDLE(c, i, p, k) :
-  @   c.mode == MLCA_T_WAITING ? mlca_t_fires_WAITING(c, i, p, k) :
-  @   c.mode == MLCA_T_MOVING_LEFT ? mlca_t_fires_MOVING_LEFT(c, i, p, k) :
-  @   c.mode == MLCA_T_MOVING_RIGHT ? mlca_t_fires_MOVING_RIGHT(c, i, p, k) :
-  @   k == -1;
+/* mlca_t_first(c, i, p): the transition that fires (-1: the mode is not a state); a function, not a relation, so
+ * that the step's contract names the transition instead of asserting that one exists */
+/*@ logic integer mlca_t_first(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p) =
+  @   c.mode == MLCA_T_IDLE ? mlca_t_first_IDLE(c, i, p) :
+  @   c.mode == MLCA_T_WAITING ? mlca_t_first_WAITING(c, i, p) :
+  @   c.mode == MLCA_T_MOVING_LEFT ? mlca_t_first_MOVING_LEFT(c, i, p) :
+  @   c.mode == MLCA_T_MOVING_RIGHT ? mlca_t_first_MOVING_RIGHT(c, i, p) :
+  @   -1;
   @*/
 /*@ axiomatic mlca_t_any {
   @   logic mlca_t_inputs_t mlca_t_any_inputs;
@@ -288,7 +289,7 @@ void mlca_t_init(mlca_t_ctx_t *c)
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_IDLE;
   @ assigns \nothing;
   @ ensures 0 <= \result;
-  @ ensures mlca_t_fires_IDLE(*c, *i, *p, \result);
+  @ ensures \result == mlca_t_first_IDLE(*c, *i, *p);
   @ behavior IDLE__1_reset:
   @   assumes mlca_t_when1(*c, *i, *p);
   @   ensures \result == 1;
@@ -332,7 +333,7 @@ static int mlca_t_fired_IDLE(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, co
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_WAITING;
   @ assigns \nothing;
   @ ensures 0 <= \result;
-  @ ensures mlca_t_fires_WAITING(*c, *i, *p, \result);
+  @ ensures \result == mlca_t_first_WAITING(*c, *i, *p);
   @ behavior WAITING__1_reset:
   @   assumes mlca_t_when1(*c, *i, *p);
   @   ensures \result == 1;
@@ -382,7 +383,7 @@ static int mlca_t_fired_WAITING(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i,
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_MOVING_LEFT;
   @ assigns \nothing;
   @ ensures 0 <= \result;
-  @ ensures mlca_t_fires_MOVING_LEFT(*c, *i, *p, \result);
+  @ ensures \result == mlca_t_first_MOVING_LEFT(*c, *i, *p);
   @ behavior MOVING_LEFT__1_reset:
   @   assumes mlca_t_when1(*c, *i, *p);
   @   ensures \result == 1;
@@ -414,7 +415,7 @@ static int mlca_t_fired_MOVING_LEFT(const mlca_t_ctx_t *c, const mlca_t_inputs_t
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100 && c->mode == MLCA_T_MOVING_RIGHT;
   @ assigns \nothing;
   @ ensures 0 <= \result;
-  @ ensures mlca_t_fires_MOVING_RIGHT(*c, *i, *p, \result);
+  @ ensures \result == mlca_t_first_MOVING_RIGHT(*c, *i, *p);
   @ behavior MOVING_RIGHT__1_reset:
   @   assumes mlca_t_when1(*c, *i, *p);
   @   ensures \result == 1;
@@ -447,7 +448,7 @@ static int mlca_t_fired_MOVING_RIGHT(const mlca_t_ctx_t *c, const mlca_t_inputs_
  * transitions, are told apart by if chains: WP splits each postcondition into one goal per case of a switch. */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true && 1 <= p->T_MIN <= 100;
   @ assigns \nothing;
-  @ ensures mlca_t_fires(*c, *i, *p, \result);
+  @ ensures \result == mlca_t_first(*c, *i, *p);
   @ ensures (c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT) ==> 0 <= \result;
   @ ensures !(c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT) ==> \result == -1;
   @*/
@@ -476,7 +477,7 @@ static int mlca_t_fired(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const m
   @ assigns *c, *o;
   @ ensures 0 <= c->waited <= 1000 && 0 <= c->need_age <= 1000 && \true;
   @ ensures c->mode == MLCA_T_IDLE || c->mode == MLCA_T_WAITING || c->mode == MLCA_T_MOVING_LEFT || c->mode == MLCA_T_MOVING_RIGHT;
-  @ ensures \exists integer k; mlca_t_fires(\old(*c), *i, *p, k) && mlca_t_next(\old(*c), *i, *p, k, *c);
+  @ ensures mlca_t_next(\old(*c), *i, *p, mlca_t_first(\old(*c), *i, *p), *c);
   @ ensures mlca_t_outputs_l(*c, *i, *p, *o);
   @*/
 void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_t *p, mlca_t_outputs_t *o)
@@ -516,7 +517,7 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
         next.prev0 = mlca_t_reg0(&next, i, p);
         next.first = false;
     }
-    /*@ assert stepped: \exists integer k; mlca_t_fires(*c, *i, *p, k) && mlca_t_next(*c, *i, *p, k, next); */ /* the contract's existential, before the outputs */
+    /*@ assert stepped: mlca_t_next(*c, *i, *p, mlca_t_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
     mlca_t_outputs(&next, i, p, o);
     *c = next;
 }
