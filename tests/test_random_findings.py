@@ -1,6 +1,6 @@
 """What random machines with data found on the code side, one regression test each: a machine that can reach a
 step with no transition enabled refused by `gen` at its line; a mode no run reaches, with no transition, compared
-as the code keeps it; a monitor whose invariants read no variable built with -Werror; a guard that repeats an
+as the code keeps it; a monitor whose invariants read no variable, or no register, built with -Werror; a guard that repeats an
 earlier one of its mode left out of the code (cppcheck: multiCondition); and gaps the suite leaves in a
 transition's update, the shared abs helper, a mode's `otherwise` and a mode no run is in, each with its reason."""
 
@@ -83,6 +83,24 @@ id = "never-c"
 expr = "state != C"
 """
     outcomes = _conform(_spec(tmp_path, body, otherwise="undefined"), ["compile", "exhaustive", "sequences"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
+
+
+def test_a_monitor_whose_invariant_decides_its_own_prev_is_built_with_werror(tmp_path: Path) -> None:
+    """`prev(c) > prev(c)` is false as written, so the invariant's code reads no register; the monitor still keeps
+    the register for the contract, and once left it unused (gcc -Werror, cppcheck: unreadVariable)."""
+    body = """
+[[transition]]
+from = ["A", "B"]
+to = "B"
+when = "valid(x)"
+do = "c = min(c + 1, 2)"
+
+[[invariant]]
+id = "decided"
+expr = "(prev(c) > prev(c) and state == A) or c <= 2"
+"""
+    outcomes = _conform(_spec(tmp_path, body), ["compile", "exhaustive", "sequences", "cppcheck"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
 
 
