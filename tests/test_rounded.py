@@ -60,7 +60,7 @@ def test_the_generated_step_reads_each_part_through_its_function(tmp_path: Path)
     files = generate(spec, tmp_path)
     source = files["c/ra_fsm.c"]
     # the contract's transition conditions and next-state relation hold no binary64 comparison or operation
-    logic = "".join(re.findall(r"/\*@ predicate ra_(?:when\d|next)\(.*?\*/", source, re.S))
+    logic = "".join(re.findall(r"/\*@ (?:predicate|logic boolean) ra_(?:when\d|next)\(.*?\*/", source, re.S))
     assert "ra_lb64_0(c, i, p)" in logic
     assert not re.search(r"c\.x\s*[<>=]|\+ p\.step", logic), logic
     clauses = re.findall(r"@ (check )?ensures binary64: (.*)", source)
