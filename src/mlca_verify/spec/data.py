@@ -306,6 +306,8 @@ class DataBuilder:
         if "unit" in item and unit is not None and self.unit_of(path, item) != unit:
             declared = show_unit(self.unit_of(path, item))
             raise self.fail((*path, "unit"), f"definition '{name}' is in {show_unit(unit)}, not {declared}")
+        if unit is None and "unit" in item:
+            unit = self.unit_of(path, item)  # only literals: they take the unit the definition declares
         signals = self.signals_read(expr)
         if "if_invalid" in item and (kind != "bool" or not signals):
             raise self.fail((*path, "if_invalid"), "'if_invalid' applies to a boolean definition that reads a signal")
