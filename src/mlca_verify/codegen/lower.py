@@ -137,6 +137,8 @@ class Lowering:
             a, b = self.go(e.left, prevs), self.go(e.right, prevs)
             if e.op == "->":
                 return f"((!{a}) || {b})" if c else f"((not {a}) or {b})"
+            if c and e.op == "<->":
+                return self.booleans_compared(a, "==", b)
             op = {"and": "&&", "or": "||", "<->": "=="}[e.op] if c else {"and": "and", "or": "or", "<->": "=="}[e.op]
             return f"({a} {op} {b})"
         if isinstance(e, Prev):
@@ -162,6 +164,8 @@ class Lowering:
             both: Type | None = "real" if "real" in (self.type_of(e.left), self.type_of(e.right)) else None
             a = self.as_type(e.left, both, prevs)
             b = self.as_type(e.right, both, prevs)
+            if c and self.type_of(e.left) == "bool":
+                return self.booleans_compared(a, e.op, b)
             return f"({a} {e.op} {b})"
         if isinstance(e, Call):
             return self.call(e, prevs)
@@ -173,6 +177,12 @@ class Lowering:
         if e.op == "/":
             return f"{self.n.prefix}_div({a}, {b})" if c else f"_div({a}, {b})"
         return f"({a} {e.op} {b})"
+
+    @staticmethod
+    def booleans_compared(a: str, op: str, b: str) -> str:
+        """Two booleans compared in C, each side negated: cppcheck's MISRA addon reads a comparison and an `&&` or
+        `||` as different essential types (rule 10.4), and two negations as one."""
+        return f"((!{a}) {op} (!{b}))"
 
     def as_type(self, e: Expr, kind: Type | None, prevs: Mapping[Prev, str] | None) -> str:
         """`e`, converted to a double where an int meets a real (as z3's ToReal does)."""
