@@ -39,7 +39,7 @@ from mlca_verify.model import (
     children,
     show,
 )
-from mlca_verify.testgen.reads import read_after_context, read_before, read_context
+from mlca_verify.testgen.reads import paths_to, read_after_context, read_before, read_context
 
 Where = Literal["pre", "post"]  # over the frame before the step (guards, definitions) or after it (monitor, outputs)
 
@@ -163,7 +163,17 @@ def choice_decisions(machine: Machine) -> Iterator[Decision]:
         for k, node in enumerate(_choices(root)):
             kind: Literal["choice", "output"] = "output" if isinstance(node, Ite) else "choice"
             condition = _choice_condition(node)
-            yield Decision(f"{kind}:{name}#{k + 1}", kind, condition, where, None, given, cite, loc)
+            inside = (*given, *_reached(root, node))
+            yield Decision(f"{kind}:{name}#{k + 1}", kind, condition, where, None, inside, cite, loc)
+
+
+def _reached(root: Expr, node: Expr) -> tuple[Expr, ...]:
+    """What must hold, inside `root`, for the code to evaluate `node`: the branches of the `if then else` around
+    it and the short circuits of `and` and `or` (nothing, where it is evaluated whenever `root` is)."""
+    ways = paths_to(root, node)
+    if any(not way for way in ways):
+        return ()
+    return (disjoin([conjoin(list(way)) for way in ways]),)
 
 
 def _fires(machine: Machine, t: Transition) -> Expr:

@@ -13,19 +13,30 @@ from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, State
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
 
 
-def paths(expr: Expr, name: str, along: Path = ()) -> list[Path]:
+def paths(expr: Expr, name: str) -> list[Path]:
     """For each occurrence of `name` in `expr`, what must hold for the code to evaluate it (short circuits and
     the branches of `if then else`)."""
-    if isinstance(expr, Var):
-        return [along] if expr.name == name else []
-    if isinstance(expr, Prev):
-        return []  # a register: the value of an earlier step, not a read now
+    return _paths(expr, lambda e: isinstance(e, Var) and e.name == name, ())
+
+
+def paths_to(expr: Expr, node: Expr) -> list[Path]:
+    """For each place `node` (this very node of `expr`'s tree) holds in `expr`, what must hold for the code to
+    evaluate it there."""
+    return _paths(expr, lambda e: e is node, ())
+
+
+def _paths(expr: Expr, hit: Callable[[Expr], bool], along: Path) -> list[Path]:
+    if hit(expr):
+        return [along]
+    if isinstance(expr, (Var, Prev)):
+        return []  # a register is the value of an earlier step, not a read now
     if isinstance(expr, BinOp):
-        return paths(expr.left, name, along) + paths(expr.right, name, along + _right_gate(expr))
+        return _paths(expr.left, hit, along) + _paths(expr.right, hit, along + _right_gate(expr))
     if isinstance(expr, Ite):
-        found = paths(expr.cond, name, along)
-        return found + paths(expr.then, name, (*along, expr.cond)) + paths(expr.other, name, (*along, Not(expr.cond)))
-    return [p for child in children(expr) for p in paths(child, name, along)]
+        found = _paths(expr.cond, hit, along)
+        found += _paths(expr.then, hit, (*along, expr.cond))
+        return found + _paths(expr.other, hit, (*along, Not(expr.cond)))
+    return [p for child in children(expr) for p in _paths(child, hit, along)]
 
 
 def _right_gate(expr: BinOp) -> Path:
