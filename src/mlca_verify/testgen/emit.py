@@ -15,6 +15,7 @@ from fractions import Fraction
 
 from mlca_verify.codegen.lower import real_literal
 from mlca_verify.codegen.render import Escaped, render_template
+from mlca_verify.conform.data import REAL_TOLERANCE
 from mlca_verify.model import Machine
 from mlca_verify.testgen.search import Pair
 from mlca_verify.testgen.suite import Case, MonitorCase, Suite
@@ -73,6 +74,7 @@ def python_suite(suite: Suite, header: Header) -> str:
         h=header,
         m=m,
         data=m.has_data,
+        tolerance=Escaped(repr(REAL_TOLERANCE)),
         runs=runs,
         monitors=monitors,
         params=params,
@@ -153,6 +155,7 @@ def c_suite(suite: Suite, header: Header, sequence: Sequence[Mapping[str, object
         h=header,
         m=m,
         data=m.has_data,
+        tolerance=Escaped(repr(REAL_TOLERANCE)),
         module=m.name.lower(),
         macro=m.name.upper(),
         runs=runs,
