@@ -585,12 +585,15 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
 
 
 def _top_claim(ev: Evidence) -> str:
+    """G1 in the machine's own terms: its params and its environment assumptions named only where it has them."""
     m = ev.spec.machine
     at = "for every param value in range"
-    if m.params and len(declared_parametric(ev)) < len(declared(ev)):
+    if len(declared_parametric(ev)) < len(declared(ev)):
         at = "at the params' defaults (and for every param value in range, the properties declared parametric)"
     who = f"The generated controller for {m.name} ({ev.spec.path})"
-    return f"{who} meets its specified properties, {at}, under its environment assumptions"
+    claim = f"{who} meets its specified properties"
+    claim += f", {at}" if m.params else ""
+    return claim + (", under its environment assumptions" if m.assumptions else "")
 
 
 def _parametric_goal(node: Callable[..., None], ev: Evidence) -> None:
