@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.data_ir import binary64
-from mlca_verify.model import Expr, Machine, Prev, Type, own, prevs_of
+from mlca_verify.logic.symbolic import input_only
+from mlca_verify.model import Expr, Input, Machine, Prev, Type, own, prevs_of
 
 Sexpr = str | list["Sexpr"]
+COMPARES_BINARY64 = "it compares binary64 values, which z3 bit-blasts; the exhaustive checks cover it"
 _TOKEN = re.compile(r"\(|\)|[^\s()]+")
 MAX_TOKENS = 100_000
 
@@ -209,6 +211,31 @@ class Proved:
     certificate: str
 
 
+def as_wp_sees(m: Machine, types: Mapping[str, Type]) -> tuple[Machine, tuple[str, ...]]:
+    """The machine with each boolean definition WP cannot look into made a boolean input of its own: one that
+    computes on reals and reads only the step's inputs, signals and params, whose logic function has no body (see
+    `data_ir.binary64`). An invariant proved of this machine holds whatever values those definitions take, as WP
+    must show it does; one proved only of the machine itself needs their arithmetic (a tank's `low` and `high`
+    never both true), which WP does not see."""
+    free = input_only(m)
+    opaque = [d for d in m.definitions if d.type == "bool" and d.name in free and binary64(d.expr, types)]
+    if not opaque:
+        return m, ()
+    inputs = m.inputs + tuple(Input(d.name, d.doc, d.cite, d.loc) for d in opaque)
+    kept = tuple(d for d in m.definitions if d not in opaque)
+    return replace(m, inputs=inputs, definitions=kept), tuple(d.name for d in opaque)
+
+
+def needs_arithmetic(
+    m: Machine, types: Mapping[str, Type], ids: Sequence[str], opaque: Sequence[str]
+) -> list[tuple[str, str]]:
+    """Why each of the invariants `ids`, proved of the machine but not as WP sees it (`as_wp_sees`), is left out."""
+    why = f"its proof needs the arithmetic of {', '.join(opaque)}, which compute on reals: WP sees them as "
+    why += "functions without a body (z3 bit-blasts binary64); the exhaustive and sequence checks cover it"
+    exprs = {inv.id: inv.expr for inv in m.invariants}
+    return [(i, COMPARES_BINARY64 if binary64(exprs[i], types) else why) for i in ids]
+
+
 def certify(
     m: Machine, lowering: AcslLowering, proved: Sequence[Proved]
 ) -> tuple[list[Certified], list[tuple[str, str]]]:
@@ -220,7 +247,7 @@ def certify(
     for item in proved:
         inv = by_id[item.id]
         if binary64(inv.expr, lowering.n.types):
-            left.append((inv.id, "it compares binary64 values, which z3 bit-blasts; the exhaustive checks cover it"))
+            left.append((inv.id, COMPARES_BINARY64))
             continue
         own = prevs_of(inv.expr)
         frame = frame_of(m, prev_index, own, [lowering.type_of(p.arg) for p in own])

@@ -25,7 +25,7 @@ from typing import Any
 import z3
 
 from mlca_verify.codegen.acsl import AcslLowering
-from mlca_verify.codegen.certified import Proved, assumed_text, certify, ranges
+from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
@@ -602,17 +602,15 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
     """The invariants the engine proves for every param in range, as postconditions of a wrapper of the step
     with their certificates as precondition, proved by WP from the step's contract (see `codegen.certified`)."""
     results = check_data_machine(t.machine, Limits(), parametric=True)
-    proved = [
-        Proved(r.prop, r.proof.certificate)
-        for r in results
-        if r.kind == "invariant"
-        and r.verdict == "holds"
-        and r.proof is not None
-        and r.proof.certificate is not None
-        and r.proof.certificate_checked
-    ]
     lowering = AcslLowering.of(t.machine, t.ir.module, t.ir.macro)
+    seen, opaque = as_wp_sees(t.machine, lowering.n.types)
+    proved = _certified(results)
+    opened = [p.id for p in proved]
+    if opaque:  # as WP sees the machine: those definitions' values free at every step
+        proved = [p for p in _certified(check_data_machine(seen, Limits(), parametric=True)) if p.id in opened]
     stated, left = certify(t.machine, lowering, proved)
+    closed = [i for i in opened if i not in {p.id for p in proved}]
+    left += needs_arithmetic(t.machine, lowering.n.types, closed, opaque)
     source = t.build / f"{t.ir.module}_certified.c"
     text = render_template(
         CERTIFIED_TEMPLATE,
@@ -638,6 +636,19 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
     reached, unkept = _reached_ranges(t, results)
     data["in_reach"] = reached
     return CheckOutcome("frama-c-wp", ran.ok and not unkept, detail + _unkept_detail(reached, unkept), data=data)
+
+
+def _certified(results: Sequence[Result]) -> list[Proved]:
+    """The invariants proved, each with a certificate a separate query confirmed."""
+    return [
+        Proved(r.prop, r.proof.certificate)
+        for r in results
+        if r.kind == "invariant"
+        and r.verdict == "holds"
+        and r.proof is not None
+        and r.proof.certificate is not None
+        and r.proof.certificate_checked
+    ]
 
 
 def _reached_ranges(t: DataTarget, results: Sequence[Result]) -> tuple[list[str], list[str]]:
