@@ -25,6 +25,7 @@ _MODE_CASE = re.compile(r"c\.mode == State\.([A-Za-z0-9_]+):")  # the Python `_f
 _MODE_FUNCTION = re.compile(r"_fired_([A-Za-z0-9_]+)\(")  # the C function of one mode's chain
 _OTHERWISE = re.compile(r"otherwise: the mode is kept")
 _EVERY = re.compile(r"\b(?:next|nxt)\.([A-Za-z0-9_]+) = .*(?:/\* |# )every step: ")  # a variable's every rule
+_OUTPUT = re.compile(r"^\s*(?:o->([A-Za-z0-9_]+) = |([A-Za-z0-9_]+)=)")  # an output's line, in C or in Python
 _FIRED = re.compile(r"\bfired == (\d+)\b")  # the step's branch of one transition (numbered from 1, in spec order)
 LOOK_BACK = 3  # lines above a gap searched for the comment naming its element
 
@@ -39,6 +40,9 @@ def element_of(lines: Sequence[str], line: int, known: set[str], numbered: Seque
     every = _EVERY.search(lines[line - 1]) if 0 < line <= len(lines) else None
     if every and every.group(1) in known:
         return every.group(1)
+    output = _OUTPUT.match(lines[line - 1]) if 0 < line <= len(lines) else None
+    if output and (output.group(1) or output.group(2)) in known:
+        return output.group(1) or output.group(2)
     for k in range(line - 1, max(line - 1 - LOOK_BACK, -1), -1):
         text = lines[k]
         for match in (*_C_TAG.finditer(text), *_PY_TAG.finditer(text)):
@@ -170,6 +174,7 @@ def explain(
     lines = source.splitlines()
     known = {t.id for t in machine.transitions} | {i.id for i in machine.invariants}
     known |= {d.name for d in machine.definitions} | {v.name for v in machine.variables if v.every is not None}
+    known |= {o.name for o in machine.outputs}
     numbered = [t.id for t in machine.transitions]
     reasons = []
     for gap in gaps:

@@ -34,12 +34,11 @@ from mlca_verify.model import (
     Not,
     Num,
     StateIn,
-    Transition,
     Var,
     children,
     show,
 )
-from mlca_verify.testgen.reads import paths_to, read_after_context, read_before, read_context
+from mlca_verify.testgen.reads import fires, no_update, paths_to, read_after_context, read_before, read_context
 
 Where = Literal["pre", "post"]  # over the frame before the step (guards, definitions) or after it (monitor, outputs)
 
@@ -155,10 +154,10 @@ def choice_decisions(machine: Machine) -> Iterator[Decision]:
         roots.append((d.name, d.expr, _where(machine, d.name), d.loc, d.cite, given))
     for v in machine.variables:
         if v.every is not None:
-            roots.append((f"every:{v.name}", v.every, "pre", v.loc, v.cite, _no_update(machine, v.name)))
+            roots.append((f"every:{v.name}", v.every, "pre", v.loc, v.cite, no_update(machine, v.name)))
     roots += [(f"out:{o.name}", o.expr, "post", o.loc, o.cite, ()) for o in machine.outputs]
     for t in machine.transitions:  # an update: read where its transition fires (one piece of code for every mode)
-        roots += [(t.id, u.expr, "pre", t.loc, t.cite, (_fires(machine, t),)) for u in t.updates]
+        roots += [(t.id, u.expr, "pre", t.loc, t.cite, (fires(machine, t),)) for u in t.updates]
     for name, root, where, loc, cite, given in roots:
         for k, node in enumerate(_choices(root)):
             kind: Literal["choice", "output"] = "output" if isinstance(node, Ite) else "choice"
@@ -174,26 +173,6 @@ def _reached(root: Expr, node: Expr) -> tuple[Expr, ...]:
     if any(not way for way in ways):
         return ()
     return (disjoin([conjoin(list(way)) for way in ways]),)
-
-
-def _fires(machine: Machine, t: Transition) -> Expr:
-    """`t` fires: in a mode it leaves, its guard holds and the earlier guards of that mode do not."""
-    ways: list[Expr] = []
-    for state in machine.states:
-        if t.applies_to(state):
-            out = machine.outgoing(state)
-            ways.append(conjoin([StateIn((state,)), *(Not(e.guard) for e in out[: out.index(t)]), t.guard]))
-    return disjoin(ways)
-
-
-def _no_update(machine: Machine, variable: str) -> tuple[Expr, ...]:
-    """No transition that updates `variable` is enabled."""
-    given: list[Expr] = []
-    for t in machine.transitions:
-        if any(u.variable == variable for u in t.updates):
-            enabled = t.guard if t.sources is None else BinOp("and", StateIn(t.sources), t.guard)
-            given.append(Not(enabled))
-    return tuple(given)
 
 
 def _choices(expr: Expr) -> list[Expr]:
@@ -220,6 +199,17 @@ def _choice_condition(node: Expr) -> Expr:
     return Cmp("<" if node.fn == "min" else ">", second, first)
 
 
+def output_decisions(machine: Machine) -> Iterator[Decision]:
+    """Each boolean output's rule, evaluated after every step (where an output reads samples, its rule inside
+    `if valid(...) then rule else if_invalid`, once they are valid)."""
+    for o in machine.outputs:
+        if o.type != "bool":
+            continue
+        rule, given = (o.expr.then, (o.expr.cond,)) if isinstance(o.expr, Ite) else (o.expr, ())
+        if atoms(rule):
+            yield Decision(f"output:{o.name}", "output", rule, "post", None, given, o.cite, o.loc)
+
+
 def invariant_decisions(machine: Machine) -> Iterator[Decision]:
     """Each invariant on its own (the monitor of a machine with data, the Python monitor), and for a machine
     without data each as the C monitor evaluates it: after the state check and the invariants before it, in
@@ -241,6 +231,7 @@ def decisions(machine: Machine) -> list[Decision]:
         *guard_decisions(machine),
         *definition_decisions(machine),
         *choice_decisions(machine),
+        *output_decisions(machine),
         *invariant_decisions(machine),
     ]
     if not machine.has_data:

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlca_verify.codegen.simplify import conjoin, disjoin
-from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Var, children, nodes
+from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Transition, Var, children, nodes
 
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
 
@@ -62,12 +62,17 @@ def _reads(expr: Expr | None, name: str) -> bool:
 
 def read_context(machine: Machine, name: str, checks: dict[str, Expr | None]) -> Expr | None:
     """Where the step code reads definition `name` (None: at every step, or only in the monitor, which the
-    suite calls at every step). `checks` gives each boolean definition's range checks."""
-    if any(_reads(v.every, name) for v in machine.variables) or any(_reads(o.expr, name) for o in machine.outputs):
-        return None
-    if any(_reads(u.expr, name) for t in machine.transitions for u in t.updates):
+    suite calls at every step). `checks` gives each boolean definition's range checks. A variable's `every` is
+    read only where no transition that updates the variable is enabled, an update only where its transition
+    fires."""
+    if any(_reads(o.expr, name) for o in machine.outputs):
         return None
     parts: list[Expr] = []
+    for v in machine.variables:
+        if v.every is not None:
+            parts += [conjoin([*no_update(machine, v.name), *p]) for p in paths(v.every, name)]
+    for t in machine.transitions:
+        parts += [conjoin([fires(machine, t), *p]) for u in t.updates for p in paths(u.expr, name)]
     for state in machine.states:
         earlier: list[Expr] = []
         for t in machine.outgoing(state):
@@ -111,3 +116,23 @@ def read_after_context(machine: Machine, name: str, checks: dict[str, Expr | Non
     parts = [conjoin(list(p)) for inv in machine.invariants for p in paths(inv.expr, name)]
     parts += _through_definitions(machine, name, checks, read_after_context)
     return disjoin(parts) if parts else None
+
+
+def fires(machine: Machine, t: Transition) -> Expr:
+    """`t` fires: in a mode it leaves, its guard holds and the earlier guards of that mode do not."""
+    ways: list[Expr] = []
+    for state in machine.states:
+        if t.applies_to(state):
+            out = machine.outgoing(state)
+            ways.append(conjoin([StateIn((state,)), *(Not(e.guard) for e in out[: out.index(t)]), t.guard]))
+    return disjoin(ways)
+
+
+def no_update(machine: Machine, variable: str) -> tuple[Expr, ...]:
+    """No transition that updates `variable` is enabled."""
+    given: list[Expr] = []
+    for t in machine.transitions:
+        if any(u.variable == variable for u in t.updates):
+            enabled = t.guard if t.sources is None else BinOp("and", StateIn(t.sources), t.guard)
+            given.append(Not(enabled))
+    return tuple(given)
