@@ -28,12 +28,19 @@ def test_the_corpus_holds_the_machines() -> None:
         "acc_modes_50hz",
         "battery_bms_10hz",
         "bus_door",
+        "can_fault_confinement",
+        "charger_1hz",
         "crossing_100hz",
         "crossing_10hz",
         "elevator_3floor_10hz",
+        "flasher_100hz",
+        "garage_door_10hz",
         "handshake_1khz",
+        "infusion_1hz",
         "level_crossing_10hz",
         "pump_debounce_1khz",
+        "seatbelt_10hz",
+        "tank_fill_1hz",
         "thermostat_1hz",
         "two_cars_gap_10hz",
         "washer_10hz",
@@ -72,15 +79,41 @@ def test_diff_against_a_weakened_copy_is_a_regression(tmp_path: Path, capsys: py
     assert main(["diff", str(spec), str(spec)]) == 0
 
 
+@pytest.mark.parametrize("name", ["flasher_100hz", "infusion_1hz", "seatbelt_10hz", "tank_fill_1hz"])
+def test_diff_against_a_copy_with_an_added_assumption_is_a_regression(
+    name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A weaker copy of each machine: one more `[[assume]]`, on its first boolean input or its first signal's
+    validity, narrows the environments every guarantee covers."""
+    spec = ROOT / "tests" / "machines" / f"{name}.toml"
+    machine = load_spec(spec).machine
+    assumed = machine.inputs[0].name if machine.inputs else f"valid({machine.signals[0].name})"
+    weaker = tmp_path / spec.name
+    weaker.write_text(spec.read_text(encoding="utf-8") + f'\n[[assume]]\nid = "weaker"\nexpr = "{assumed}"\n')
+    assert main(["diff", str(spec), str(weaker)]) == 1
+    out = capsys.readouterr().out
+    assert "assumptions narrowed: weaker allow fewer environments, so every guarantee is weaker (a regression)" in out
+
+
 SUITES = [
     "acc_modes_50hz",
     "bus_door",
+    "can_fault_confinement",
+    "charger_1hz",
     "elevator_3floor_10hz",
+    "flasher_100hz",
+    "garage_door_10hz",
+    "infusion_1hz",
+    "seatbelt_10hz",
+    "tank_fill_1hz",
     "thermostat_1hz",
 ]  # the pump's helper gap: test_testgen.py
 NEVER_FAILS = {  # an invariant no context breaks
     "elevator_3floor_10hz": "no-move-with-doors-open",
     "acc_modes_50hz": "decel-only-when-active",
+    "charger_1hz": "current-limited",
+    "flasher_100hz": "one-side-from-the-stalk",
+    "garage_door_10hz": "lamp-while-moving",
 }
 
 
@@ -90,8 +123,9 @@ def test_the_suite_of_a_corpus_machine_leaves_no_gap_without_a_reason(
     name: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Each of these once failed `tests`: the cruise control's suite never stepped from ACTIVE (a realized signal
-    broke the run the search had found), and gaps in a definition's function or the shared min helper had no
-    reason."""
+    broke the run the search had found), gaps in a definition's function or the shared min helper had no
+    reason, a CAN counter's choice nested in an `if` was paired where the C never evaluates it, and a charger's
+    real output, rounded by binary64, failed the suite's exact comparison."""
     spec = ROOT / "tests" / "machines" / f"{name}.toml"
     generated, out = tmp_path / "gen", tmp_path / "tests"
     assert main(["gen", "--out", str(generated), str(spec)]) == 0
