@@ -22,7 +22,7 @@ from mlca_verify.conform.checks import CheckOutcome
 from mlca_verify.conform.data import DATA_CHECKS
 from mlca_verify.evidence.collect import Evidence, data_argument
 from mlca_verify.logic import check_all
-from mlca_verify.logic.datachecks import check_data_machine
+from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
 from mlca_verify.model import Machine, Not, Var, nodes, show
 from mlca_verify.spec import load_spec
@@ -193,6 +193,11 @@ def test_an_invariant_whose_proof_needs_a_real_definitions_arithmetic_is_not_sta
 
     assert proved(machine) == {"stops-on-a-bad-level", "stops-when-full", "dry-run-bounded"}
     assert proved(seen) == {"dry-run-bounded"}
+    ids = ["stops-when-full", "dry-run-bounded"]  # as conform asks: the invariants alone
+    assert [(r.prop, r.verdict) for r in check_invariants(seen, Limits(), ids)] == [
+        ("stops-when-full", "violated"),
+        ("dry-run-bounded", "holds"),
+    ]
     why = dict(needs_arithmetic(machine, {"level": "real"}, ["stops-when-full", "stops-on-a-bad-level"], opaque))
     assert why["stops-when-full"].startswith("its proof needs the arithmetic of low, high, no_flow, level_ok")
     assert why["stops-on-a-bad-level"] == COMPARES_BINARY64

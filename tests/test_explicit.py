@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parent.parent
 MACHINES = sorted((ROOT / "tests" / "machines").glob("*.toml"))
 DATA = [p for p in MACHINES if load_spec(p).machine.has_data]  # the explicit engine serves machines with data
 # machines whose deepest counterexample and witness lie within BMC's default depth of 60 (their timers are short)
-SHORT_RUNS = {"acc_modes_50hz", "battery_bms_10hz", "bus_door", "two_cars_gap_10hz", "watchdog_100hz"}
+SHORT_RUNS = {"acc_modes_50hz", "battery_bms_10hz", "bus_door", "flasher_100hz", "two_cars_gap_10hz", "watchdog_100hz"}
 _DEPTH = re.compile(r"^(?:reached in|fires at step) ([\d,]+)")
 
 

@@ -30,7 +30,7 @@ from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
 from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
 from mlca_verify.layout import Layout
-from mlca_verify.logic.datachecks import check_data_machine
+from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.replay64 import Binary64
 from mlca_verify.logic.replay64 import Value as Value64
@@ -607,7 +607,7 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
     proved = _certified(results)
     opened = [p.id for p in proved]
     if opaque:  # as WP sees the machine: those definitions' values free at every step
-        proved = [p for p in _certified(check_data_machine(seen, Limits(), parametric=True)) if p.id in opened]
+        proved = _certified(check_invariants(seen, Limits(), opened, parametric=True))
     stated, left = certify(t.machine, lowering, proved)
     closed = [i for i in opened if i not in {p.id for p in proved}]
     left += needs_arithmetic(t.machine, lowering.n.types, closed, opaque)
