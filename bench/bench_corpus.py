@@ -42,7 +42,9 @@ def weakened(spec: Path, work: Path) -> Path:
     machine = load_spec(spec).machine
     assumed = machine.inputs[0].name if machine.inputs else f"valid({machine.signals[0].name})"
     copy = work / spec.name
-    copy.write_text(spec.read_text(encoding="utf-8") + f'\n[[assume]]\nid = "weaker"\nexpr = "{assumed}"\n')
+    copy.write_text(
+        spec.read_text(encoding="utf-8") + f'\n[[assume]]\nid = "weaker"\nexpr = "{assumed}"\n', encoding="utf-8"
+    )
     return copy
 
 

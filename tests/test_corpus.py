@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from bench.bench_corpus import weakened
 
 from mlca_verify.cli import main
 from mlca_verify.conform.checks import CheckOutcome
@@ -86,11 +87,7 @@ def test_diff_against_a_copy_with_an_added_assumption_is_a_regression(
     """A weaker copy of each machine: one more `[[assume]]`, on its first boolean input or its first signal's
     validity, narrows the environments every guarantee covers."""
     spec = ROOT / "tests" / "machines" / f"{name}.toml"
-    machine = load_spec(spec).machine
-    assumed = machine.inputs[0].name if machine.inputs else f"valid({machine.signals[0].name})"
-    weaker = tmp_path / spec.name
-    weaker.write_text(spec.read_text(encoding="utf-8") + f'\n[[assume]]\nid = "weaker"\nexpr = "{assumed}"\n')
-    assert main(["diff", str(spec), str(weaker)]) == 1
+    assert main(["diff", str(spec), str(weakened(spec, tmp_path))]) == 1
     out = capsys.readouterr().out
     assert "assumptions narrowed: weaker allow fewer environments, so every guarantee is weaker (a regression)" in out
 

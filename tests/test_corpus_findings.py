@@ -218,3 +218,21 @@ def test_a_boolean_output_is_a_decision_and_an_every_is_read_where_no_update_app
     (read, checks) = found["def:bulb_out"].given
     assert {show(n) for n in nodes(read) if isinstance(n, Var)} >= {"hazard", "stalk_left", "stalk_right"}
     assert "valid" not in show(read) and "lamp_current" in show(checks)
+
+
+def test_each_branch_of_a_boolean_output_written_as_an_if_is_a_decision_where_it_is_taken(tmp_path: Path) -> None:
+    body = """
+[inputs]
+go = { doc = "go" }
+[variables]
+n = { type = "int", initial = 0, range = [0, 9], every = "min(n + 1, 9)", doc = "a count" }
+[outputs]
+busy = { type = "bool", expr = "if go then n >= 3 and n < 7 else n < 1 or n > 8", doc = "two rules" }
+[[transition]]
+from = "A"
+to = "B"
+when = "go"
+"""
+    found = {d.id: d for d in decisions(load_spec(_spec(tmp_path, body)).machine)}
+    assert [show(found["output:busy#1"].expr), *map(show, found["output:busy#1"].given)] == ["n >= 3 and n < 7", "go"]
+    assert [show(found["output:busy#2"].expr), *map(show, found["output:busy#2"].given)] == ["n < 1 or n > 8", "not go"]

@@ -609,8 +609,8 @@ def certified_invariants(t: DataTarget) -> CheckOutcome:
     if opaque:  # as WP sees the machine: those definitions' values free at every step
         proved = _certified(check_invariants(seen, Limits(), opened, parametric=True))
     stated, left = certify(t.machine, lowering, proved)
-    closed = [i for i in opened if i not in {p.id for p in proved}]
-    left += needs_arithmetic(t.machine, lowering.n.types, closed, opaque)
+    kept = {p.id for p in proved}
+    left += needs_arithmetic(t.machine, lowering.n.types, [i for i in opened if i not in kept], opaque)
     source = t.build / f"{t.ir.module}_certified.c"
     text = render_template(
         CERTIFIED_TEMPLATE,

@@ -59,16 +59,18 @@ def _types(m: Machine) -> dict[str, bool]:
     return real
 
 
-def rounding_bounds(m: Machine) -> dict[str, float]:
-    """Per real variable and output, an absolute slack beside the relative REAL_TOLERANCE: that tolerance times the
-    magnitude of its declared range (0 without one). Near zero a relative tolerance alone is too tight: a cruise
-    control's clamped deceleration is 0.0 in binary64 where the spec's exact value is 1.8e-16."""
+def real_comparison(m: Machine) -> dict[str, object]:
+    """How both suites compare a real the code computed with the spec's exact value: within the relative
+    REAL_TOLERANCE, plus an absolute slack per real variable and output, that tolerance times the magnitude of its
+    declared range (0 without one). Near zero a relative tolerance alone is too tight: a cruise control's clamped
+    deceleration is 0.0 in binary64 where the spec's exact value is 1.8e-16."""
     ranged = [(o.name, o.range) for o in m.outputs if o.type == "real"]
     ranged += [(v.name, v.range) for v in m.variables if v.type == "real"]
-    return {
+    slack = {
         name: REAL_TOLERANCE * float(max(abs(bounds[0]), abs(bounds[1]))) if bounds is not None else 0.0
         for name, bounds in sorted(ranged)
     }
+    return {"tolerance": Escaped(repr(REAL_TOLERANCE)), "bounds": {k: Escaped(repr(v)) for k, v in slack.items()}}
 
 
 def _c_struct(values: Mapping[str, object], real: dict[str, bool]) -> Escaped:
@@ -86,8 +88,7 @@ def python_suite(suite: Suite, header: Header) -> str:
         h=header,
         m=m,
         data=m.has_data,
-        tolerance=Escaped(repr(REAL_TOLERANCE)),
-        bounds={k: Escaped(repr(v)) for k, v in rounding_bounds(m).items()},
+        **real_comparison(m),
         runs=runs,
         monitors=monitors,
         params=params,
@@ -168,8 +169,7 @@ def c_suite(suite: Suite, header: Header, sequence: Sequence[Mapping[str, object
         h=header,
         m=m,
         data=m.has_data,
-        tolerance=Escaped(repr(REAL_TOLERANCE)),
-        bounds={k: Escaped(repr(v)) for k, v in rounding_bounds(m).items()},
+        **real_comparison(m),
         module=m.name.lower(),
         macro=m.name.upper(),
         runs=runs,

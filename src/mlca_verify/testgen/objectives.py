@@ -200,14 +200,25 @@ def _choice_condition(node: Expr) -> Expr:
 
 
 def output_decisions(machine: Machine) -> Iterator[Decision]:
-    """Each boolean output's rule, evaluated after every step (where an output reads samples, its rule inside
-    `if valid(...) then rule else if_invalid`, once they are valid)."""
+    """Each boolean output's rules, evaluated after every step: its expression, or each branch of an `if then
+    else` it is (where the branch is taken; an output that reads samples is `if valid(...) then rule else
+    if_invalid`). The `if`'s own condition is a choice (`choice_decisions`)."""
     for o in machine.outputs:
         if o.type != "bool":
             continue
-        rule, given = (o.expr.then, (o.expr.cond,)) if isinstance(o.expr, Ite) else (o.expr, ())
-        if atoms(rule):
-            yield Decision(f"output:{o.name}", "output", rule, "post", None, given, o.cite, o.loc)
+        rules = [(rule, given) for rule, given in _branches(o.expr, ()) if atoms(rule)]
+        for k, (rule, given) in enumerate(rules):
+            at = f"#{k + 1}" if len(rules) > 1 else ""
+            yield Decision(f"output:{o.name}{at}", "output", rule, "post", None, given, o.cite, o.loc)
+
+
+def _branches(expr: Expr, given: tuple[Expr, ...]) -> Iterator[tuple[Expr, tuple[Expr, ...]]]:
+    """The boolean rules of `expr` below its `if then else`s, each with what holds where the code evaluates it."""
+    if isinstance(expr, Ite):
+        yield from _branches(expr.then, (*given, expr.cond))
+        yield from _branches(expr.other, (*given, Not(expr.cond)))
+    else:
+        yield expr, given
 
 
 def invariant_decisions(machine: Machine) -> Iterator[Decision]:
