@@ -8,4 +8,4 @@ bash scripts/setup.sh
 .venv/bin/ruff format --check src sim_check tests bench scripts
 .venv/bin/mypy
 .venv/bin/mlca-verify gen --check
-.venv/bin/pytest -n 2 "$@"
+.venv/bin/pytest -n 2 --dist loadgroup "$@"

@@ -82,7 +82,9 @@ def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -
     mutated = source.replace(left, "@@").replace(right, left).replace("@@", right)
     (tmp_path / "mlca_t_fsm.c").write_text(mutated)
     shutil.copy2(GENERATED / "c" / "mlca_t_fsm.h", tmp_path)
-    flags = [*WP, *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING"]  # as conform runs it (its steps)
+    # as conform runs it (its steps), on the behaviours asked about: the swapped one and the two urgent ones
+    behaviours = "WAITING__4_wait_left,WAITING__2_urgent_left,WAITING__3_urgent_right"
+    flags = [*WP, *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING", "-wp-bhv", behaviours]
     ran = subprocess.run(
         [*flags, str(tmp_path / "mlca_t_fsm.c")],
         check=False,
@@ -97,6 +99,8 @@ def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -
         if " Goal " in line and "Valid" not in line
     }
     assert "typed_mlca_t_fired_WAITING_WAITING_4_wait_left_ensures" in unproved, ran.stdout[-2000:]
+    proved = [line for line in ran.stdout.splitlines() if " Goal " in line and "Valid" in line]
+    assert sum("urgent" in line for line in proved) == 2, ran.stdout[-2000:]  # both urgent behaviours were asked
     # the urgent behaviours still hold: a budget of steps, not of seconds, decides each goal, so load cannot fail one
     assert not any("urgent" in goal for goal in unproved), unproved
 

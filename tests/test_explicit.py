@@ -3,6 +3,7 @@ counterexamples the symbolic engine builds, and its verdicts the symbolic engine
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 import subprocess
@@ -38,10 +39,25 @@ def _depth(result: Result) -> int:
     return int(found.group(1).replace(",", "")) if found else 0
 
 
-@pytest.mark.parametrize("path", MACHINES, ids=lambda p: p.stem)
-def test_long_timers_are_decided_with_no_unknown(path: Path) -> None:
+@functools.cache
+def _decided(path: Path) -> tuple[list[Result], DataChecker | None]:
+    """`check`'s verdicts on the machine at `path` with the default limits, and for a machine with data the
+    checker that gave them (its counterexamples as the explicit engine built them); computed once a worker."""
     machine = load_spec(path).machine
-    results = check_all(machine)
+    if not machine.has_data:
+        return check_all(machine), None
+    checker = DataChecker(machine, Limits())
+    return checker.run_all(), checker
+
+
+def _by_machine(paths: list[Path]) -> list[object]:
+    """The machines as parameters, each machine's tests on one worker, so it is decided once."""
+    return [pytest.param(p, id=p.stem, marks=pytest.mark.xdist_group(f"explicit:{p.stem}")) for p in paths]
+
+
+@pytest.mark.parametrize("path", _by_machine(MACHINES))
+def test_long_timers_are_decided_with_no_unknown(path: Path) -> None:
+    results, _ = _decided(path)
     assert [r.prop for r in results if r.verdict == "unknown"] == []
     assert [r.prop for r in results if not r.ok] == []
     if path.stem not in SHORT_RUNS:
@@ -53,10 +69,10 @@ def test_long_timers_are_decided_with_no_unknown(path: Path) -> None:
 QUICK = [p for p in DATA if p.stem not in ("crossing_100hz", "can_fault_confinement", "charger_1hz")]
 
 
-@pytest.mark.parametrize("path", [*QUICK, ROOT / "spec" / "mlca_t.toml"], ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", _by_machine([*QUICK, ROOT / "spec" / "mlca_t.toml"]))
 def test_explicit_counterexamples_are_the_symbolic_traces_of_the_same_runs(path: Path) -> None:
-    checker = DataChecker(load_spec(path).machine, Limits())
-    checker.run_all()
+    _, checker = _decided(path)
+    assert checker is not None
     built = list(checker._traces.values())
     assert built
     for found, explicit in built:
@@ -92,10 +108,10 @@ def test_a_bound_one_step_short_is_violated_and_the_exact_one_holds() -> None:
     assert served[201].proof is not None and served[201].proof.engine == "explicit"
 
 
-@pytest.mark.parametrize("path", [*QUICK, ROOT / "spec" / "mlca_t.toml"], ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", _by_machine([*QUICK, ROOT / "spec" / "mlca_t.toml"]))
 def test_the_symbolic_engine_agrees_where_it_decides(path: Path) -> None:
     machine = load_spec(path).machine
-    explicit = {r.prop: r for r in check_all(machine)}
+    explicit = {r.prop: r for r in _decided(path)[0]}
     # the symbolic engines alone, on a small budget: what they leave unknown is not compared
     alone = Limits(induction=2, depth=10, lasso=4, timeout_ms=1000, steps=0)
     symbolic = {r.prop: r for r in check_all(machine, limits=alone)}
