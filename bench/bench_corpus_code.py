@@ -23,9 +23,11 @@ from __future__ import annotations
 
 import argparse
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -183,26 +185,55 @@ def driver(m: Machine, b: Bench, module: str) -> str:
     }
 
 
+def without_registers(source: str, module: str) -> str:
+    """The generated C with the monitor's `prev()` registers no longer written by the step (a measurement only:
+    the monitor then reads stale registers)."""
+    source = re.sub(r"\n\s*next\.prev\d+ = [^\n]*;", "", source)
+    return re.sub(r"\n\s*next\.first = false;", "", source)
+
+
+def definitions_once(source: str, module: str) -> str:
+    """The generated C with every definition the dispatch and the updates call computed once, before the
+    dispatch, into a file-scope variable they read instead (a measurement only)."""
+    head, cut, body = source.partition(f"static int {module}_fired_")
+    names = sorted(set(re.findall(rf"{module}_def_(\w+)\(c, i, p\)", body)))
+    kinds = {n: re.search(rf"static (\w+) {module}_def_{n}\(", head).group(1) for n in names}  # type: ignore[union-attr]
+    for n in names:
+        body = body.replace(f"{module}_def_{n}(c, i, p)", f"once_{n}")
+    computed = "".join(f"    once_{n} = {module}_def_{n}(c, i, p);\n" for n in names)
+    dispatch = f"    const int fired = {module}_fired(c, i, p);"
+    body = body.replace(dispatch, computed + dispatch)
+    return head + "".join(f"static {kinds[n]} once_{n};\n" for n in names) + cut + body
+
+
+VARIANTS: dict[str, Callable[[str, str], str]] = {
+    "no prev() registers": without_registers,
+    "definitions once": definitions_once,
+}
+
 CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
 ARM = ("-std=c99", "-mcpu=cortex-m4", "-mthumb", "-Os", "-ffp-contract=off", "-ffunction-sections", "-fdata-sections")
 
 
-def build(b: Bench, steps: int, work: Path) -> tuple[Path, Path, str, Machine]:
-    """Generate the machine's C, build the lockstep driver and run it once natively: the trajectory, or abort."""
+def generate(b: Bench, work: Path) -> tuple[Path, str, Machine]:
+    """The machine's generated C source, its module name and the machine."""
     spec = ROOT / "tests" / "machines" / f"{b.spec}.toml"
-    machine = load_spec(spec).machine
     generated = work / b.spec
     sh(sys.executable, "-m", "mlca_verify", "gen", "--out", str(generated), str(spec))
     source = next((generated / "c").glob("*_fsm.c"))
+    return source, source.name.removesuffix("_fsm.c"), load_spec(spec).machine
+
+
+def build(b: Bench, machine: Machine, source: Path, steps: int, work: Path) -> tuple[Path, str]:
+    """Build the lockstep driver over `source` and run it once natively: the trajectory, or abort."""
     module = source.name.removesuffix("_fsm.c")
     drive = work / f"drive_{b.spec}.c"
     drive.write_text(driver(machine, b, module))
-    exe = work / f"drive_{b.spec}"
+    exe = work / f"drive_{b.spec}_{source.parent.parent.name}"
     hand = REFERENCE / f"{b.hand}_hand.c"
-    sh("gcc", *CFLAGS, f"-I{generated / 'c'}", f"-I{REFERENCE}", f"-DSEED=UINT64_C({SEED:#x})",
+    sh("gcc", *CFLAGS, f"-I{source.parent}", f"-I{REFERENCE}", f"-DSEED=UINT64_C({SEED:#x})",
        f"-DSTEPS={steps}ul", "-o", str(exe), str(drive), str(source), str(hand), "-lm")  # fmt: skip
-    trajectory = sh(str(exe)).strip()
-    return exe, source, trajectory, machine
+    return exe, sh(str(exe)).strip()
 
 
 def instructions(function: str, exe: Path, steps: int, work: Path) -> tuple[float, str]:
@@ -229,19 +260,27 @@ def text_bytes(function: str, source: Path, include: Path, work: Path) -> int:
     return sum(int(size) for _, size in sections)
 
 
-def measure(b: Bench, steps: int, work: Path) -> tuple[str, dict[str, tuple[float, int]]]:
-    exe, source, trajectory, _ = build(b, steps, work)
-    module = source.name.removesuffix("_fsm.c")
-    candidates = {
-        f"generated {module}_step": (f"{module}_step", source),
-        f"hand-written {b.hand}_hand_step": (f"{b.hand}_hand_step", REFERENCE / f"{b.hand}_hand.c"),
-    }
+def measure(b: Bench, steps: int, work: Path, variants: bool) -> tuple[str, dict[str, tuple[float, int]]]:
+    source, module, machine = generate(b, work)
+    exe, trajectory = build(b, machine, source, steps, work)
     rows = {}
-    for label, (function, file) in candidates.items():
-        per_step, replay = instructions(function, exe, steps, work)
+
+    def row(label: str, function: str, file: Path, driven: Path) -> None:
+        per_step, replay = instructions(function, driven, steps, work)
         if replay != trajectory:
-            raise SystemExit(f"{b.spec}: the run under callgrind differs from the native one:\n{replay}")
+            raise SystemExit(f"{b.spec}: {label}: the run under callgrind differs from the native one:\n{replay}")
         rows[label] = (per_step, text_bytes(function, file, source.parent, work))
+
+    row(f"generated {module}_step", f"{module}_step", source, exe)
+    row(f"hand-written {b.hand}_hand_step", f"{b.hand}_hand_step", REFERENCE / f"{b.hand}_hand.c", exe)
+    for label, edit in VARIANTS.items() if variants else ():
+        folder = work / label.replace(" ", "_").replace("()", "") / "c"
+        folder.mkdir(parents=True)
+        shutil.copy2(source.with_suffix(".h"), folder)
+        edited = folder / source.name
+        edited.write_text(edit(source.read_text(), module))
+        driven, _ = build(b, machine, edited, steps, work)
+        row(f"generated, {label}", f"{module}_step", edited, driven)
     return trajectory, rows
 
 
@@ -249,6 +288,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=1_000_000, help="steps of the fixed input sequence")
     parser.add_argument("--only", choices=[b.spec for b in BENCHES], help="one machine only")
+    parser.add_argument(
+        "--variants", action="store_true", help="also measure the generated C edited: " + ", ".join(VARIANTS)
+    )
     args = parser.parse_args()
     print(f"{args.steps} steps a machine, generated and hand-written in lockstep with identical modes, variables")
     print("and outputs at every step (gcc -O2 -ffp-contract=off; Cortex-M4 .text of the step and its callees)")
@@ -257,12 +299,14 @@ def main() -> None:
         for b in BENCHES:
             if args.only and b.spec != args.only:
                 continue
-            trajectory, rows = measure(b, args.steps, Path(folder))
+            work = Path(folder) / b.spec
+            work.mkdir()
+            trajectory, rows = measure(b, args.steps, work, args.variants)
             print(f"\n{b.spec} ({trajectory})")
             print(f"{'candidate':40} {'instructions/step':>18} {'Cortex-M4 .text B':>18}")
             for label, (per_step, size) in rows.items():
                 print(f"{label:40} {per_step:18.2f} {size:18d}")
-            gen, hand = rows.values()
+            gen, hand = list(rows.values())[:2]
             summary.append((b.spec, gen[0] / hand[0], gen[1] / hand[1]))
     print(f"\n{'machine':24} {'instructions ratio':>20} {'.text ratio':>12}")
     for name, ins, text in summary:

@@ -15,6 +15,7 @@ def at_root(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(ROOT)
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Tests that share a module-scoped fixture run on one worker (`pytest -n 2 --dist loadgroup`), so the
     fixture, often minutes of proofs or simulation, is built once and not once per worker."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import subprocess
 import tempfile
 from dataclasses import replace
 from pathlib import Path
@@ -16,7 +17,7 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import CheckOutcome, Target, cppcheck, frama_c
+from mlca_verify.conform.checks import CheckOutcome, Target, cppcheck, external_calls, frama_c, library_calls
 from mlca_verify.layout import Layout
 from mlca_verify.logic import check_all
 from mlca_verify.model import Machine
@@ -60,6 +61,7 @@ def test_shipped_specs_pass_every_check(tmp_path: Path) -> None:
         assert not any("_part" in n and "_step_" in n and "ensures" in n for n in names), "per-case split is back"
         assert checks["exhaustive"]["data"]["cases"] == (4 + 3) * 16
         assert 0 < checks["cortex-m4"]["data"]["step_text"] <= 128
+        assert checks["cortex-m4"]["data"]["calls"] == []  # the README: no call out of the object
 
 
 def _target(c_file: Path, build: Path) -> Target:
@@ -238,3 +240,34 @@ def test_inputs_outside_0_1_are_reported_when_only_a_later_state_reads_them(tmp_
     outcomes = conform(loaded, out, ["compile", "sanitizers"], quiet).outcomes
     sanitizers = next(o for o in outcomes if o.name == "sanitizers")
     assert sanitizers.ok and sanitizers.detail.endswith("inputs outside 0/1 reported"), sanitizers.detail
+
+
+def test_the_cortex_m4_build_tells_soft_float_helpers_from_library_calls(tmp_path: Path) -> None:
+    """binary64 on a core without a double-precision FPU is calls to the compiler's helpers; a call into the C
+    library (a struct copy gcc makes a memcpy, a sqrt) is what the README says the generated code never makes."""
+    source = tmp_path / "calls.c"
+    source.write_text(
+        "#include <math.h>\n#include <string.h>\n"
+        "double f(double a, double b) { return a * b + a / b; }\n"
+        "void g(char *d, const char *s, size_t n) { memcpy(d, s, n); }\n"
+        "double h(double a) { return sqrt(a); }\n"
+    )
+    obj = tmp_path / "calls.o"
+    ran = subprocess.run(["arm-none-eabi-gcc", "-mcpu=cortex-m4", "-mthumb", "-Os", "-fno-builtin", "-c", "-o",
+                          str(obj), str(source)], capture_output=True, text=True, check=False)  # fmt: skip
+    assert ran.returncode == 0, ran.stderr
+    calls = external_calls(obj)
+    assert {"__aeabi_dmul", "__aeabi_ddiv", "__aeabi_dadd", "memcpy", "sqrt"} <= set(calls)
+    assert library_calls(calls) == ["memcpy", "sqrt"]
+
+
+@pytest.mark.parametrize("name", ["pump_debounce_1khz", "watchdog_100hz"])
+def test_generated_code_of_a_data_machine_calls_no_library(name: str, tmp_path: Path) -> None:
+    path = ROOT / "tests" / "machines" / f"{name}.toml"
+    assert main(["gen", "--out", str(tmp_path), str(path)]) == 0
+    spec = load_spec(path, compare=False)
+    outcome = next(o for o in conform(spec, tmp_path, ["cortex-m4"], quiet).outcomes if o.name == "cortex-m4")
+    assert outcome.ok, outcome.detail
+    calls = outcome.data["calls"]
+    assert all(c.startswith("__aeabi_d") for c in calls) and bool(calls) == (name == "pump_debounce_1khz")
+    assert ("no library call (binary64 through" in outcome.detail) == bool(calls)

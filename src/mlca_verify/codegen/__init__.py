@@ -13,6 +13,7 @@ from mlca_verify.codegen.render import TEMPLATE_DIR, render, render_data
 from mlca_verify.errors import CodegenError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import GENERATED_GLOB
+from mlca_verify.logic.checks import Checker
 from mlca_verify.logic.datachecks import completeness
 from mlca_verify.logic.graph import Encoding, explore
 from mlca_verify.logic.induction import Limits
@@ -31,6 +32,14 @@ def _gaps_and_reachable(spec: LoadedSpec) -> tuple[list[str], tuple[str, ...]]:
     return gaps, tuple(s for s in machine.states if s in reach.dist)
 
 
+def _proved_invariants(spec: LoadedSpec) -> frozenset[str]:
+    """The invariants the engine proves: only those become a contract of the step and a duty of the monitor in
+    conform's runs (an invariant the spec claims but the engine shows violated is `check`'s finding, and the
+    code that follows the spec breaks it too)."""
+    checker = Checker(spec.machine)
+    return frozenset(i.id for i in spec.machine.invariants if checker.invariant(i).verdict == "holds")
+
+
 def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
     """The IR of a loaded spec; the spec path is recorded relative to the folder that holds `out_dir`."""
     require_first_match(spec.machine)
@@ -43,7 +52,7 @@ def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
         )
     base = out_dir.resolve().parent
     rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
-    return build_ir(spec.machine, rel, spec.sha256, __version__, reachable)
+    return build_ir(spec.machine, rel, spec.sha256, __version__, reachable, proved=_proved_invariants(spec))
 
 
 def generate(spec: LoadedSpec, out_dir: Path, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:

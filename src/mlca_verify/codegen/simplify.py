@@ -86,6 +86,8 @@ def _tidy(expr: Expr) -> Expr:
                 "<->": a.value == b.value,
             }[expr.op]
         )
+    if expr.op in ("and", "or") and a == b:  # `x or x`: cppcheck's duplicateExpression
+        return a
     for const, other, first in ((a, b, True), (b, a, False)):
         if not isinstance(const, Const):
             continue
@@ -102,14 +104,17 @@ def _tidy(expr: Expr) -> Expr:
 
 
 def in_context(guards: list[Expr], solver: Solver, machine: Machine, state: str) -> list[Expr]:
-    """The code condition of each guard of one state's first-match chain."""
+    """The code condition of each guard of one state's first-match chain: `false` for a guard that never holds
+    where the chain reaches it (the code leaves that branch out)."""
     encoded = [encode(g, solver.vars) for g in guards]
     contexts = none_before(machine, state, guards, encoded, solver.vars)
     tables = tables_for(machine, guards, solver.vars)
     known = remaining(tables, guards) if tables is not None else [None] * len(contexts)
     return [
-        _in_context(guard, Context(formula, tables, table), solver)
-        for guard, formula, table in zip(guards, contexts, known, strict=False)
+        Const(False)
+        if solver.check(z3.And(formula, guard)) == "unsat"
+        else _in_context(expr, Context(formula, tables, table), solver)
+        for expr, guard, formula, table in zip(guards, encoded, contexts, known, strict=False)
     ]
 
 

@@ -263,6 +263,20 @@ def cppcheck_file(c_file: Path, build: Path) -> CheckOutcome:
 
 
 ARM_FLAGS = ("-mcpu=cortex-m4", "-mthumb", "-Os")
+# the ARM run-time ABI's helpers (libgcc): on a core without a double-precision FPU, binary64 arithmetic and
+# compares are calls to these, the only calls generated code may make
+RUNTIME_HELPER = re.compile(r"__aeabi_\w+")
+
+
+def external_calls(obj: Path) -> list[str]:
+    """The functions an object file calls but does not define (its undefined symbols), sorted."""
+    listed = run(["arm-none-eabi-nm", "-u", str(obj)]).output.split()
+    return sorted(name for name in listed if name != "U")
+
+
+def library_calls(calls: list[str]) -> list[str]:
+    """Of `calls`, those that are not the compiler's run-time helpers: calls into a library."""
+    return [name for name in calls if not RUNTIME_HELPER.fullmatch(name)]
 
 
 def cross_build(t: Target) -> CheckOutcome:
@@ -275,9 +289,13 @@ def cross_build(t: Target) -> CheckOutcome:
     symbols = run(["arm-none-eabi-nm", "-S", str(obj)]).output
     step = re.search(rf"^[0-9a-f]+ ([0-9a-f]+) T {t.ir.module}_step$", symbols, re.MULTILINE)
     step_bytes = int(step.group(1), 16) if step else -1
-    info = {"text": text, "data": data, "bss": bss, "step_text": step_bytes}
-    detail = f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}: text {text} B (step {step_bytes} B), data {data} B, bss {bss} B"
-    return CheckOutcome("cortex-m4", data == 0 and bss == 0, detail, data=info)
+    calls = external_calls(obj)
+    info = {"text": text, "data": data, "bss": bss, "step_text": step_bytes, "calls": calls}
+    detail = (
+        f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}: text {text} B (step {step_bytes} B), data {data} B, bss {bss} B, "
+        + (f"calls {', '.join(calls)}" if calls else "no call out of the object")
+    )
+    return CheckOutcome("cortex-m4", data == 0 and bss == 0 and not calls, detail, data=info)
 
 
 def sanitizers(t: Target) -> CheckOutcome:

@@ -28,7 +28,14 @@ from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
-from mlca_verify.conform.checks import ARM_FLAGS, CheckOutcome, cppcheck_file, wp_file
+from mlca_verify.conform.checks import (
+    ARM_FLAGS,
+    CheckOutcome,
+    cppcheck_file,
+    external_calls,
+    library_calls,
+    wp_file,
+)
 from mlca_verify.layout import Layout
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
@@ -519,12 +526,23 @@ def cross_build(t: DataTarget) -> CheckOutcome:
     usage = stack.read_text(encoding="utf-8") if stack.is_file() else su.read_text(encoding="utf-8")
     frames = {m.group(1): int(m.group(2)) for m in re.finditer(r":\d+:\d+:(\w+)\t(\d+)", usage)}
     step = frames.get(f"{t.ir.module}_step", -1)
+    calls = external_calls(obj)
+    outside = library_calls(calls)
     detail = (
         f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}, binary64 in software: text {text} B, data {data} B, bss {bss} B; "
         f"stack: {t.ir.module}_step's own frame {step} B, every frame summed {sum(frames.values())} B (a bound on "
-        "any call chain: there is no recursion)"
+        f"any call chain: there is no recursion); {_calls_text(calls, outside)}"
     )
-    return CheckOutcome("cortex-m4", True, detail, data={"text": text, "data": data, "bss": bss, "stack": frames})
+    info = {"text": text, "data": data, "bss": bss, "stack": frames, "calls": calls}
+    return CheckOutcome("cortex-m4", not outside, detail, data=info)
+
+
+def _calls_text(calls: list[str], outside: list[str]) -> str:
+    if outside:
+        return f"calls into a library: {', '.join(outside)}"
+    if calls:
+        return f"no library call (binary64 through the compiler's soft-float helpers {', '.join(calls)})"
+    return "no call out of the object"
 
 
 # WP's flags for a machine with data, beside conform.checks.WP, with its budget of steps: MLCA-T's hardest goal

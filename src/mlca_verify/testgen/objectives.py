@@ -225,8 +225,10 @@ def invariant_decisions(machine: Machine) -> Iterator[Decision]:
     """Each invariant on its own (the monitor of a machine with data, the Python monitor), and for a machine
     without data each as the C monitor evaluates it: after the state check and the invariants before it, in
     one `hold && ...` chain."""
+    # the Python monitor of a machine without data names an out-of-range state alone, evaluating no invariant
+    valid = () if machine.has_data else (StateIn(machine.states),)
     for inv in machine.invariants:
-        yield Decision(f"inv:{inv.id}", "invariant", inv.expr, "post", cite=inv.cite, loc=inv.loc)
+        yield Decision(f"inv:{inv.id}", "invariant", inv.expr, "post", None, valid, inv.cite, inv.loc)
     if machine.has_data:
         return
     given: list[Expr] = [StateIn(machine.states)]
