@@ -83,18 +83,8 @@ MLCA_T_DRIVER = r"""
 #include <stdio.h>
 #include "mlca_t_fsm.h"
 #include "mlca_t_hand.h"
+#include "splitmix.h"
 
-static uint64_t rng = SEED;
-
-static uint64_t next(void) /* splitmix64 */
-{
-    uint64_t z = (rng += UINT64_C(0x9E3779B97F4A7C15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-    return z ^ (z >> 31);
-}
-
-static int one_in(unsigned n) { return (next() % n) == 0u; }
 
 static double uniform(double hi) { return (double)(next() >> 11) * 0x1.0p-53 * hi; }
 

@@ -71,18 +71,8 @@ DRIVER = r"""
 #include <stdio.h>
 #include "%(header)s"
 #include "%(hand)s_hand.h"
+#include "splitmix.h"
 
-static uint64_t rng = SEED;
-
-static uint64_t next(void) /* splitmix64 */
-{
-    uint64_t z = (rng += UINT64_C(0x9E3779B97F4A7C15));
-    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
-    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
-    return z ^ (z >> 31);
-}
-
-static int one_in(unsigned n) { return (next() %% n) == 0u; }
 
 static double uniform(double lo, double hi) { return lo + (double)(next() >> 11) * 0x1.0p-53 * (hi - lo); }
 
@@ -231,7 +221,7 @@ def build(b: Bench, machine: Machine, source: Path, steps: int, work: Path) -> t
     drive.write_text(driver(machine, b, module))
     exe = work / f"drive_{b.spec}_{source.parent.parent.name}"
     hand = REFERENCE / f"{b.hand}_hand.c"
-    sh("gcc", *CFLAGS, f"-I{source.parent}", f"-I{REFERENCE}", f"-DSEED=UINT64_C({SEED:#x})",
+    sh("gcc", *CFLAGS, f"-I{source.parent}", f"-I{REFERENCE}", f"-I{REFERENCE.parent}", f"-DSEED=UINT64_C({SEED:#x})",
        f"-DSTEPS={steps}ul", "-o", str(exe), str(drive), str(source), str(hand), "-lm")  # fmt: skip
     return exe, sh(str(exe)).strip()
 
