@@ -245,7 +245,9 @@ def mlca_t_driver(steps: int, work: Path) -> tuple[Path, str]:
     return exe, done.stdout.strip()
 
 
-def mlca_t_instructions(function: str, exe: Path, steps: int, work: Path) -> tuple[float, str]:
+def callgrind_instructions(function: str, exe: Path, steps: int, work: Path) -> tuple[float, str]:
+    """Instructions per step inside `function` (callgrind, collecting in it alone) over a run of `exe`, and what
+    the run printed."""
     out_file = work / f"callgrind.{function}"
     done = subprocess.run(
         ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out_file}", f"--toggle-collect={function}", str(exe)],
@@ -254,7 +256,7 @@ def mlca_t_instructions(function: str, exe: Path, steps: int, work: Path) -> tup
         check=False,
     )
     if done.returncode != 0:
-        raise SystemExit(f"MLCA-T: the run under callgrind failed, benchmark aborted:\n{done.stderr}")
+        raise SystemExit(f"{function}: the run under callgrind failed, benchmark aborted:\n{done.stderr}")
     total = int(re.search(r"Collected : (\d+)", done.stderr).group(1))  # type: ignore[union-attr]
     return total / steps, done.stdout.strip()
 
@@ -282,7 +284,7 @@ def mlca_t_section(steps: int) -> None:
         work = Path(folder)
         exe, trajectory = mlca_t_driver(steps, work)
         for label, (function, source) in MLCA_T_CANDIDATES.items():
-            per_step, replay = mlca_t_instructions(function, exe, steps, work)
+            per_step, replay = callgrind_instructions(function, exe, steps, work)
             assert replay == trajectory, f"the run under callgrind differs from the native one: {replay}"
             rows[label] = (per_step, *mlca_t_text_bytes(function, source, work))
     print(f"\nMLCA-T (spec/mlca_t.toml): {steps} steps, generated and hand-written in lockstep, identical outputs")

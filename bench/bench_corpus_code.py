@@ -31,6 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from bench_codegen import callgrind_instructions  # run as a script: bench/ is on the path
 from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec
 
@@ -226,20 +227,6 @@ def build(b: Bench, machine: Machine, source: Path, steps: int, work: Path) -> t
     return exe, sh(str(exe)).strip()
 
 
-def instructions(function: str, exe: Path, steps: int, work: Path) -> tuple[float, str]:
-    out_file = work / f"callgrind.{function}"
-    done = subprocess.run(
-        ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out_file}", f"--toggle-collect={function}", str(exe)],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if done.returncode != 0:
-        raise SystemExit(f"{function}: the run under callgrind failed, benchmark aborted:\n{done.stderr}")
-    total = int(re.search(r"Collected : (\d+)", done.stderr).group(1))  # type: ignore[union-attr]
-    return total / steps, done.stdout.strip()
-
-
 def text_bytes(function: str, source: Path, include: Path, work: Path) -> int:
     """Cortex-M4 .text of `function` and every function it calls."""
     obj, elf = work / f"{function}.arm.o", work / f"{function}.arm.elf"
@@ -256,7 +243,7 @@ def measure(b: Bench, steps: int, work: Path, variants: bool) -> tuple[str, dict
     rows = {}
 
     def row(label: str, function: str, file: Path, driven: Path) -> None:
-        per_step, replay = instructions(function, driven, steps, work)
+        per_step, replay = callgrind_instructions(function, driven, steps, work)
         if replay != trajectory:
             raise SystemExit(f"{b.spec}: {label}: the run under callgrind differs from the native one:\n{replay}")
         rows[label] = (per_step, text_bytes(function, file, source.parent, work))
