@@ -100,8 +100,9 @@ def _conform_with_templates(templates: Path, tmp_path: Path, checks: list[str]) 
 @pytest.mark.parametrize(
     ("template", "old", "new", "caught_by"),
     [
-        ("c_fsm.c.j2", "    next = {{ M }}_{{ b.target }};\n{% endfor %}\n{% if branches %}",
-         "    next = {{ M }}_{{ b.target if not loop.last else m.initial }};\n{% endfor %}\n{% if branches %}", "exhaustive"),
+        ("c_fsm.c.j2", "    next = {{ M }}_{{ b.target }};\n{% endif %}\n{% endfor %}\n{% if closed %}",
+         "    next = {{ M }}_{{ b.target if not loop.last else m.initial }};\n{% endif %}\n{% endfor %}\n{% if closed %}",
+         "exhaustive"),
         ("python_fsm.py.j2", "            return State.{{ b.target }}", "            return State.{{ case.state }}", "exhaustive"),
         ("c_fsm.c.j2", "next = {{ M }}_FALLBACK;", "next = {{ M }}_{{ m.states[-1] }};", "exhaustive"),
     ],
