@@ -15,35 +15,31 @@ from mlca_verify.files import write_atomic
 from mlca_verify.layout import GENERATED_GLOB
 from mlca_verify.logic.checks import Checker
 from mlca_verify.logic.datachecks import completeness
-from mlca_verify.logic.graph import Encoding, explore
 from mlca_verify.logic.induction import Limits
-from mlca_verify.logic.solver import Solver
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.version import __version__
 
 __all__ = ["Drift", "data_ir", "drift", "foreign", "generate", "machine_ir", "source_of", "write"]
 
 
-def _gaps_and_reachable(spec: LoadedSpec) -> tuple[list[str], tuple[str, ...]]:
-    machine = spec.machine
-    enc = Encoding(machine, Solver(machine.input_names))
-    gaps = [s for s, gap in enc.gaps.items() if enc.solver.check(gap) != "unsat"]
-    reach = explore(enc)
-    return gaps, tuple(s for s in machine.states if s in reach.dist)
+def _gaps(checker: Checker) -> list[str]:
+    """The states where no transition is enabled for some inputs."""
+    enc = checker.enc
+    return [s for s, gap in enc.gaps.items() if enc.solver.check(gap) != "unsat"]
 
 
-def _proved_invariants(spec: LoadedSpec) -> frozenset[str]:
+def _proved_invariants(checker: Checker) -> frozenset[str]:
     """The invariants the engine proves: only those become a contract of the step and a duty of the monitor in
     conform's runs (an invariant the spec claims but the engine shows violated is `check`'s finding, and the
     code that follows the spec breaks it too)."""
-    checker = Checker(spec.machine)
-    return frozenset(i.id for i in spec.machine.invariants if checker.invariant(i).verdict == "holds")
+    return frozenset(i.id for i in checker.machine.invariants if checker.invariant(i).verdict == "holds")
 
 
 def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
     """The IR of a loaded spec; the spec path is recorded relative to the folder that holds `out_dir`."""
     require_first_match(spec.machine)
-    gaps, reachable = _gaps_and_reachable(spec)
+    checker = Checker(spec.machine)  # one exploration of the machine: its gaps, reachable states and invariants
+    gaps = _gaps(checker)
     if gaps and spec.machine.semantics == "first-match":
         raise CodegenError.at(
             spec.machine.loc,
@@ -52,7 +48,8 @@ def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
         )
     base = out_dir.resolve().parent
     rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
-    return build_ir(spec.machine, rel, spec.sha256, __version__, reachable, proved=_proved_invariants(spec))
+    reachable = tuple(s for s in spec.machine.states if s in checker.reach.dist)
+    return build_ir(spec.machine, rel, spec.sha256, __version__, reachable, proved=_proved_invariants(checker))
 
 
 def generate(spec: LoadedSpec, out_dir: Path, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
