@@ -309,3 +309,38 @@ def test_every_way_z3_says_it_ran_out_is_put_in_words(raw: str) -> None:
     said = stopped(raw, 300)
     assert "canceled" not in said and "ran out of its budget (z3's resources for 300 ms" in said
     assert stopped("smt tactic failed to show goal to be sat/unsat (incomplete quantifiers)", 300).startswith("smt")
+
+
+def test_a_loop_through_the_initial_state_is_the_shortest_lasso_where_no_register_reads_the_first_step() -> None:
+    """Where no prev() register reads whether a step is the first, the configuration before the first step and
+    one after a step that differ in that flag alone step alike: they are one, so a lasso may come back to the
+    start. Alg. 1's livelock (`gap-taken`) is then the boolean engine's two-step loop through IDLE, not a
+    three-step run with a stem, and the search keeps one configuration per state."""
+    machine = load_spec(ROOT / "spec" / "mlca.toml").machine
+    data = {r.prop: r for r in DataChecker(machine, Limits()).run_all()}
+    boolean = {r.prop: r for r in check_all(machine)}
+    for prop in ("gap-taken", "left-gap-taken-left"):
+        ours, theirs = data[prop].counterexample, boolean[prop].counterexample
+        assert ours is not None and theirs is not None
+        assert (ours.loop_start, len(ours.steps)) == (theirs.loop_start, len(theirs.steps)) == (0, 2)
+        assert [(s.state, s.inputs, s.outcome.transition) for s in ours.steps] == [
+            (s.state, s.inputs, s.outcome.transition) for s in theirs.steps
+        ]
+        assert data[prop].detail.endswith("the run loops through IDLE")
+    assert "4 configurations" in data["A1"].detail
+    assert data["reach:IDLE"].detail.startswith("the initial state, entered again in 1 step")
+
+
+def test_a_lasso_still_needs_a_step_where_a_register_reads_the_first_one() -> None:
+    """With a prev() register the flag is kept: the first step reads the register's start, later ones its
+    value, so the configuration before the first step is not one a loop can come back to."""
+    text = (ROOT / "spec" / "mlca.toml").read_text(encoding="utf-8")
+    text = text.replace(
+        '[[liveness]]\nid = "gap-taken"',
+        '[[invariant]]\nid = "prev-read"\nexpr = "prev(N) or not prev(N)"\ncite = "t"\n\n[[liveness]]\nid = "gap-taken"',
+        1,
+    )
+    machine = load_text(text, "prev.toml")
+    results = {r.prop: r for r in DataChecker(machine, Limits()).run_all()}
+    found = results["gap-taken"].counterexample
+    assert found is not None and found.loop_start is not None and found.loop_start >= 1

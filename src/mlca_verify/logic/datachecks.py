@@ -44,6 +44,7 @@ from mlca_verify.model import (
     Lemma,
     Liveness,
     Machine,
+    Num,
     Output,
     Prev,
     Var,
@@ -404,7 +405,12 @@ class DataChecker:
 
     def reach(self, state: str) -> Decision:
         never = f"no run from {self.m.initial} reaches {state}"
-        return self.witnessed(f"reach:{state}", _reaches(state), lambda n: f"reached in {count(n, 'step')}", never)
+
+        def seen(n: int) -> str:
+            steps = count(n, "step")
+            return f"the initial state, entered again in {steps}" if state == self.m.initial else f"reached in {steps}"
+
+        return self.witnessed(f"reach:{state}", _reaches(state), seen, never)
 
     def fires(self, tid: str) -> Decision:
         return self.witnessed(f"fires:{tid}", _fires(tid), lambda n: f"fires at step {n}", "never fires")
@@ -508,7 +514,8 @@ class DataChecker:
 
         exprs = (live.assume, live.goal, bound)
         found = self.search(exprs, bad, parametric=parametric, monitors=(monitor,), target=live.id)
-        return self.violation(found, "the assumption holds for the whole bound and the goal is not met")
+        span = count(int(bound.value), "step") if isinstance(bound, Num) else "the whole bound"
+        return self.violation(found, f"the assumption holds for {span} and the goal is not met")
 
     def explicit_loop(
         self, finite: Finite, live: Liveness, real: System, restricted: Callable[[StepTerms], z3.BoolRef]
@@ -522,7 +529,7 @@ class DataChecker:
             if path is not None:
                 self.traced_explicitly(path, answer.run, answer.loop_start)
                 search = Search("reachable", path, "explicit", len(answer.run), on_real=True)
-                return "violated", search, "the assumption holds forever and the goal never does", self.trace(path)
+                return _looping(search, self.trace(path))
         if answer.never:
             search = Search("unreachable", engine="explicit", notes=[finite.size()], on_real=True)
             return "holds", search, f"proved by {_engine(search)}: no reachable loop keeps the goal away", None
@@ -542,7 +549,7 @@ class DataChecker:
         answer, path = lasso(real, restricted, self.limits)
         search = Search(answer, path, "lasso", self.limits.lasso)
         if answer == "reachable" and path is not None:
-            return "violated", search, "the assumption holds forever and the goal never does", self.trace(path)
+            return _looping(search, self.trace(path))
         search.reason = (
             f"no lasso within {self.limits.lasso} steps; a response without a bound is not proved beyond that"
         )
@@ -557,10 +564,16 @@ def _looped(restricted: Callable[[StepTerms], z3.BoolRef], start: int) -> Callab
     """That a replayed run ends in the frame its step `start` began in, through restricted steps."""
 
     def final(path: Path) -> z3.BoolRef:
-        same = [a == b for a, b in zip(path.frames[start].terms(), path.frames[-1].terms(), strict=True)]
+        same = [a == b for a, b in zip(path.frames[start].looped(), path.frames[-1].looped(), strict=True)]
         return z3.And(*same, *[restricted(t) for t in path.terms[start:]])
 
     return final
+
+
+def _looping(search: Search, trace: Counterexample) -> Decision:
+    """A response without a bound violated by a lasso, and where its loop starts."""
+    start = trace.steps[trace.loop_start or 0].state
+    return "violated", search, f"the assumption holds forever and the goal never does: the run loops through {start}", trace
 
 
 def _engine(found: Search) -> str:

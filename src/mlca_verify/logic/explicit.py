@@ -25,7 +25,9 @@ from mlca_verify.logic.classes import InputClass
 from mlca_verify.logic.concrete import Compiler, Env, Eval, NotFinite, Undecidable, Value
 from mlca_verify.model import Expr, Machine
 
-Config = tuple[Value | None, ...]  # mode, first, variables..., registers...
+# mode, first, variables..., registers... (`first` stays True where no register reads it: the configurations
+# before and after a step that differ in it alone step alike, so they are one)
+Config = tuple[Value | None, ...]
 # A target's test of one step: the environment before it, after it (None: no transition enabled where the
 # machine is undefined, so no step), the transition that fired (-1: none) and the configuration reached.
 Test = Callable[[Env, "Env | None", int, "Config | None"], bool]
@@ -225,7 +227,7 @@ class Search:
         previous = tuple(r(before) for r in self.registers) if first else registers
         after = Env(target, post_vars, cls.bools, cls.atoms, previous)  # type: ignore[arg-type]
         post_regs = tuple(r(after) for r in self.registers)
-        return before, after, fired, (target, False, *post_vars, *post_regs)
+        return before, after, fired, (target, not self.registers, *post_vars, *post_regs)
 
     def steps(self) -> int:
         """The steps taken so far (one per class of each configuration expanded)."""

@@ -289,10 +289,10 @@ def _path(finite: Finite, name: str, real: System, run: Sequence[int], loop_star
     frames = [real.frame(f"x{n}") for n in range(len(configs))]
     inputs = [real.inputs(f"x{n}") for n in range(len(run))]
     links = [real.step(frames[n], inputs[n], frames[n + 1]) for n in range(len(run))]
-    pins = [
+    pins = [  # a frame's `first` is its place in the run (a configuration keeps it only where a register reads it)
         t == v
-        for f, config, count in zip(frames, configs, counts, strict=True)
-        for t, v in _frame_values(finite, real, f, config, count)
+        for n, (f, config, count) in enumerate(zip(frames, configs, counts, strict=True))
+        for t, v in _frame_values(finite, real, f, (config[0], n == 0, *config[2:]), count)
     ]
     for i, c in zip(inputs, run, strict=True):
         cls = finite.classes[c]

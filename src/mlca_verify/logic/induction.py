@@ -315,7 +315,7 @@ def lasso(real: System, restricted: Callable[[StepTerms], z3.BoolRef], limits: L
         k = n + 1
         loops = []
         for j in range(k):
-            same = z3.And(*[a == b for a, b in zip(run.frames[j].terms(), run.frames[k].terms(), strict=True)])
+            same = z3.And(*[a == b for a, b in zip(run.frames[j].looped(), run.frames[k].looped(), strict=True)])
             loops.append(z3.And(same, *[restricted(run.terms[m]) for m in range(j, k)]))
         answer = run.check(z3.Or(*loops))
         if answer == z3.sat:

@@ -97,6 +97,11 @@ class Frame:
             *self.params.values(),
         ]
 
+    def looped(self) -> list[z3.ExprRef]:
+        """The constants a run that comes back to this frame must match: all but `first`, where no register
+        reads it (a step from the first frame is then a step from any frame with its mode and values)."""
+        return [t for t in self.terms() if self.registers or t is not self.first]
+
 
 @dataclass
 class StepInputs:
