@@ -573,7 +573,8 @@ def _looped(restricted: Callable[[StepTerms], z3.BoolRef], start: int) -> Callab
 def _looping(search: Search, trace: Counterexample) -> Decision:
     """A response without a bound violated by a lasso, and where its loop starts."""
     start = trace.steps[trace.loop_start or 0].state
-    return "violated", search, f"the assumption holds forever and the goal never does: the run loops through {start}", trace
+    detail = f"the assumption holds forever and the goal never does: the run loops through {start}"
+    return "violated", search, detail, trace
 
 
 def _engine(found: Search) -> str:
