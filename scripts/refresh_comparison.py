@@ -15,8 +15,9 @@ import csv
 import sys
 from pathlib import Path
 
-from sim_check.db import EXPORTED, ResultsDB
+from sim_check.db import ResultsDB
 from sim_check.report import write_report
+from sim_check.schema import EXPORTED
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "comparison"
 

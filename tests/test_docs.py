@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from scripts.refresh_docs import BLOCK, DOCS, run
-from sim_check import db
+from sim_check import db, schema
 from sim_check.report import write_report
 from tests.conftest import ROOT
 
@@ -37,7 +37,7 @@ COMPARISON = ROOT / "docs" / "comparison"
 def _rebuild(db_path: Path, comparison: Path = COMPARISON) -> None:
     """The committed CSV rows of `comparison` back into a results database of this version's schema."""
     with db.ResultsDB.open_for_writing(db_path) as results:
-        for table in db.EXPORTED:
+        for table in schema.EXPORTED:
             types = results.column_types(table)
             with (comparison / f"{table}.csv").open(newline="", encoding="utf-8") as f:
                 reader = csv.reader(f)

@@ -236,20 +236,21 @@ def test_a_schema_2_database_is_still_reported_without_the_new_sections(tmp_path
     is read by `mlca-sim report`, which leaves out what it does not record."""
     import sqlite3
 
-    from sim_check import db
+    from sim_check import schema
+    from sim_check.db import ResultsDB
     from sim_check.report import write_report
 
     path = tmp_path / "old.sqlite"
     conn = sqlite3.connect(path)
-    for table, columns in db.COLUMNS_2.items():
+    for table, columns in schema.COLUMNS_2.items():
         conn.execute(f"CREATE TABLE {table} ({', '.join(columns)})")
     conn.execute("CREATE TABLE violations (controller, avs, seed, av, time_s, invariants, trace_json)")
-    conn.execute(f"PRAGMA application_id = {db.APPLICATION_ID}")
+    conn.execute(f"PRAGMA application_id = {schema.APPLICATION_ID}")
     conn.execute("PRAGMA user_version = 2")
     run = {"controller": "mlca_r-c", "avs": 1, "seed": 0, "status": "done", "reason": "", "collisions": 0}
     conn.execute(
-        f"INSERT INTO runs VALUES ({', '.join('?' for _ in db.COLUMNS_2['runs'])})",
-        [run.get(c, 0) for c in db.COLUMNS_2["runs"]],
+        f"INSERT INTO runs VALUES ({', '.join('?' for _ in schema.COLUMNS_2['runs'])})",
+        [run.get(c, 0) for c in schema.COLUMNS_2["runs"]],
     )
     metrics = {
         "controller": "mlca_r-c",
@@ -261,8 +262,8 @@ def test_a_schema_2_database_is_still_reported_without_the_new_sections(tmp_path
         "travel_time_s": 900.0,
     }
     conn.execute(
-        f"INSERT INTO av_metrics VALUES ({', '.join('?' for _ in db.COLUMNS_2['av_metrics'])})",
-        [metrics.get(c, 0) for c in db.COLUMNS_2["av_metrics"]],
+        f"INSERT INTO av_metrics VALUES ({', '.join('?' for _ in schema.COLUMNS_2['av_metrics'])})",
+        [metrics.get(c, 0) for c in schema.COLUMNS_2["av_metrics"]],
     )
     conn.commit()
     conn.close()
@@ -271,7 +272,7 @@ def test_a_schema_2_database_is_still_reported_without_the_new_sections(tmp_path
     assert "1 finished runs" in report and "## Mechanism" in report
     assert "## Transition coverage" not in report and "## Shadow mode" not in report and "## Safety" not in report
     with pytest.raises(Exception, match="written by an older mlca-sim"):
-        db.ResultsDB.open_for_writing(path)
+        ResultsDB.open_for_writing(path)
 
 
 class Recorder:

@@ -20,9 +20,10 @@ from typing import Any
 import pytest
 
 from mlca_verify.errors import SpecError, UsageError
-from sim_check import db
+from sim_check import schema, transactions
 from sim_check.cli import main
 from sim_check.db import MonitorSummary, ResultsDB
+from sim_check.leases import Owner, started_time
 from sim_check.results import AvMetrics, RunResult, Violation
 from sim_check.scenario import load_scenario
 from tests.conftest import ROOT
@@ -152,8 +153,8 @@ def test_a_sweep_opens_its_database_once_and_closes_it(
 def test_a_write_waits_and_retries_while_another_process_holds_the_lock(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(db, "BUSY_TIMEOUT_S", 0.1)
-    monkeypatch.setattr(db, "WRITE_ATTEMPTS", 30)
+    monkeypatch.setattr(transactions, "BUSY_TIMEOUT_S", 0.1)
+    monkeypatch.setattr(transactions, "WRITE_ATTEMPTS", 30)
     path = tmp_path / "r.sqlite"
     results = ResultsDB.open_for_writing(path)
     holder = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
@@ -167,8 +168,8 @@ def test_a_write_waits_and_retries_while_another_process_holds_the_lock(
 
 
 def test_a_lock_held_through_every_retry_is_one_clear_error(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(db, "BUSY_TIMEOUT_S", 0.05)
-    monkeypatch.setattr(db, "WRITE_ATTEMPTS", 3)
+    monkeypatch.setattr(transactions, "BUSY_TIMEOUT_S", 0.05)
+    monkeypatch.setattr(transactions, "WRITE_ATTEMPTS", 3)
     path = tmp_path / "r.sqlite"
     results = ResultsDB.open_for_writing(path)
     holder = sqlite3.connect(path, isolation_level=None)
@@ -206,14 +207,14 @@ def _foreign(path: Path) -> None:
 def _older(path: Path) -> None:
     """A database as mlca-sim wrote it before the schema had a version: the same three tables, unmarked."""
     with sqlite3.connect(path) as conn:
-        for statement in db.SCHEMA[:3]:
-            conn.execute(statement)
+        for name in ("runs", "av_metrics", "violations"):
+            conn.execute(f"CREATE TABLE {name} ({', '.join(schema.TABLES[name].names(1))})")
 
 
 def _newer(path: Path) -> None:
     ResultsDB.open_for_writing(path).close()
     with sqlite3.connect(path) as conn:
-        conn.execute(f"PRAGMA user_version = {db.SCHEMA_VERSION + 1}")
+        conn.execute(f"PRAGMA user_version = {schema.SCHEMA_VERSION + 1}")
 
 
 def _text(path: Path) -> None:
@@ -269,8 +270,8 @@ def _sleeper() -> subprocess.Popen[bytes]:
 
 
 def _lease(path: Path, seeds: range, pid: int) -> None:
-    owner = db.Owner.me()
-    started = db._started(pid)
+    owner = Owner.me()
+    started = started_time(pid)
     with sqlite3.connect(path) as conn:
         conn.executemany("INSERT INTO leases VALUES ('mlca-c', 1, ?, ?, ?, ?)",
                          [(seed, owner.host, pid, started) for seed in seeds])  # fmt: skip
@@ -323,7 +324,7 @@ def test_a_lease_whose_pid_was_reused_is_reclaimed(tmp_path: Path) -> None:
     path = tmp_path / "r.sqlite"
     with ResultsDB.open_for_writing(path) as results:
         with sqlite3.connect(path) as other:  # another process's lease, written as that process would
-            other.execute("INSERT INTO leases VALUES ('mlca-c', 1, 0, ?, ?, '1')", (db.Owner.me().host, os.getppid()))
+            other.execute("INSERT INTO leases VALUES ('mlca-c', 1, 0, ?, ?, '1')", (Owner.me().host, os.getppid()))
         other.close()
         plan = results.lease([("mlca-c", 1, 0)], resume=True, retry_failed=False)
     assert plan.todo == [("mlca-c", 1, 0)]  # the parent lives, but was not started at clock tick 1
@@ -438,7 +439,7 @@ def test_a_live_sweeps_folder_is_left_alone(tmp_path: Path, monkeypatch: pytest.
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     other = _sleeper()
     try:
-        live = tmp_path / f"mlca-sim-work-{other.pid}-{db._started(other.pid)}-abc"
+        live = tmp_path / f"mlca-sim-work-{other.pid}-{started_time(other.pid)}-abc"
         dead = tmp_path / f"mlca-sim-work-{other.pid}-1-abc"  # the same pid, another process: gone
         live.mkdir()
         dead.mkdir()
@@ -446,7 +447,7 @@ def test_a_live_sweeps_folder_is_left_alone(tmp_path: Path, monkeypatch: pytest.
 
         mine = work_folder()
         assert sorted(tmp_path.iterdir()) == sorted([live, mine])
-        assert mine.name.startswith(f"mlca-sim-work-{os.getpid()}-{db._started(os.getpid())}-")
+        assert mine.name.startswith(f"mlca-sim-work-{os.getpid()}-{started_time(os.getpid())}-")
     finally:
         other.kill()
         other.wait()
@@ -563,3 +564,19 @@ def test_a_bad_scenario_through_the_cli_is_one_line(tmp_path: Path, capsys: pyte
     path = _scenario(tmp_path, b"[traffic]\ncars = \xfe\n")
     assert main(["run", "--scenario", str(path)]) == 2
     assert one_line_error(capsys) == f"{path}:2:8: error: not UTF-8: byte 0xfe\n"
+
+
+def test_the_layout_is_described_once_and_every_version_begins_with_the_one_before(tmp_path: Path) -> None:
+    """The DDL, the columns the report reads and the inserts all come from one description of each table: a new
+    database has exactly the described columns and types, and the columns of an older version come first, in
+    order (which is what lets `mlca-sim report` read every version)."""
+    ResultsDB.open_for_writing(tmp_path / "r.sqlite").close()
+    with sqlite3.connect(tmp_path / "r.sqlite") as conn:
+        for name, table in schema.TABLES.items():
+            info = conn.execute(f"PRAGMA table_info({name})").fetchall()
+            assert [(r[1], r[2], bool(r[3])) for r in info] == [(c.name, c.kind, c.required) for c in table.columns]
+            assert [r[1] for r in info if r[5]] == list(table.key)  # the primary key, in order
+            for version in (1, 2):
+                older = table.names(version)
+                assert table.names()[: len(older)] == older
+    assert schema.COLUMNS_2["runs"][-1] == "bg_mean_speed_ms" and "density_veh_km_lane" in schema.COLUMNS["runs"]
