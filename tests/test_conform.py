@@ -17,7 +17,8 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import CheckOutcome, Target, cppcheck, external_calls, frama_c, library_calls
+from mlca_verify.conform.checks import Subject, cppcheck, external_calls, frama_c, library_calls
+from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.layout import Layout
 from mlca_verify.logic import check_all
 from mlca_verify.model import Machine
@@ -64,27 +65,27 @@ def test_shipped_specs_pass_every_check(tmp_path: Path) -> None:
         assert checks["cortex-m4"]["data"]["calls"] == []  # the README: no call out of the object
 
 
-def _target(c_file: Path, build: Path) -> Target:
-    """A target whose C source is `c_file` (with the header beside it, or the generated one)."""
+def _subject(c_file: Path, build: Path) -> Subject:
+    """A subject whose C source is `c_file` (with the header beside it, or the generated one)."""
     spec = load_spec(ROOT / "spec/mlca.toml", compare=False)
     layout = Layout(build / "generated", "mlca")
     layout.c_source.parent.mkdir(parents=True)
     shutil.copy(c_file, layout.c_source)
     header = c_file.with_name("mlca_fsm.h")
     shutil.copy(header if header.is_file() else ROOT / "generated" / "c" / "mlca_fsm.h", layout.c_header)
-    return Target(spec, machine_ir(spec, ROOT / "generated"), layout, build)
+    return Subject(spec, machine_ir(spec, ROOT / "generated"), layout, build)
 
 
 @pytest.mark.slow
 def test_hand_broken_copy_fails_the_proof(tmp_path: Path) -> None:
-    outcome = frama_c(_target(FIXTURES / "broken" / "mlca_fsm.c", tmp_path))
+    outcome = frama_c(_subject(FIXTURES / "broken" / "mlca_fsm.c", tmp_path))
     assert not outcome.ok
     assert outcome.data["proved"] < outcome.data["goals"]
     assert any("IDLE_3_idle_left" in goal for goal in outcome.data["unproved"]), outcome.data["unproved"]
 
 
 def test_cppcheck_runs_its_misra_addon(tmp_path: Path) -> None:
-    outcome = cppcheck(_target(FIXTURES / "misra_violation.c", tmp_path))
+    outcome = cppcheck(_subject(FIXTURES / "misra_violation.c", tmp_path))
     assert not outcome.ok
     assert any("misra-c2012-15.1" in f for f in outcome.data["findings"]), outcome.data["findings"]
 

@@ -19,7 +19,7 @@ from markupsafe import escape
 from playwright.sync_api import sync_playwright
 
 from mlca_verify.cli import main
-from mlca_verify.conform.data import DATA_CHECKS
+from mlca_verify.conform.outcome import CHECKS
 from mlca_verify.evidence import ClosedLoopRuns
 from mlca_verify.evidence.collect import closed_loop
 from mlca_verify.evidence.coverage import GOAL
@@ -313,7 +313,7 @@ def test_the_data_bundle_holds_every_check_of_mlca_t_passed(data_bundle: Path) -
 def test_data_machine_bundle_packages_its_generated_code(data_bundle: Path) -> None:
     doc = json.loads((data_bundle / "evidence.json").read_text())
     # the generated code: every conformance check of a machine with data, the files, the lines of each element
-    assert [c["name"] for c in doc["conformance"]] == ["up-to-date", *DATA_CHECKS] and all(
+    assert [c["name"] for c in doc["conformance"]] == ["up-to-date", *CHECKS] and all(
         c["ok"] for c in doc["conformance"]
     )
     wp = next(c for c in doc["conformance"] if c["name"] == "frama-c-wp")["data"]
@@ -325,7 +325,7 @@ def test_data_machine_bundle_packages_its_generated_code(data_bundle: Path) -> N
     assert doc["closed_loop"]["status"] == "undeveloped"
     nodes = {n["id"]: n for n in doc["argument"]}
     assert nodes["G4"]["ok"] is True and nodes["G5"]["ok"] is True and nodes["G6"]["ok"] is True
-    assert [n["text"].split(":")[0] for n in doc["argument"] if n["parent"] == "S5"] == list(DATA_CHECKS)
+    assert [n["text"].split(":")[0] for n in doc["argument"] if n["parent"] == "S5"] == list(CHECKS)
     assert nodes["G7"]["type"] == "undeveloped" and "no closed-loop results given" in nodes["G7"]["text"]
 
 

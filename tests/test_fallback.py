@@ -12,8 +12,7 @@ import pytest
 
 from mlca_verify.cli import main
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import CheckOutcome
-from mlca_verify.conform.data import DATA_CHECKS
+from mlca_verify.conform.outcome import CHECKS, CheckOutcome
 from mlca_verify.diagram import FORMATS, render
 from mlca_verify.errors import SpecError
 from mlca_verify.evidence.collect import Evidence, document
@@ -183,7 +182,7 @@ def test_the_evidence_names_the_states_the_initial_one_and_the_fallback(tmp_path
     path = ROOT / "tests" / "machines" / "crossing_10hz.toml"
     assert main(["gen", "--out", str(tmp_path), str(path)]) == 0
     spec = load_spec(path)
-    passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *DATA_CHECKS)]
+    passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *CHECKS)]
     loop = {"status": "undeveloped", "detail": "no closed-loop runs"}
     doc = document(Evidence(spec, check_all(spec.machine), passed, tmp_path, [], "now", loop=loop))
     schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())

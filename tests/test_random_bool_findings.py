@@ -16,7 +16,7 @@ import pytest
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate, write
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import CheckOutcome
+from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.spec import load_spec
 
 CHECKS = ["compile", "exhaustive", "sequences", "frama-c-wp", "cppcheck"]

@@ -29,7 +29,7 @@ from mlca_verify.cli_base import (
 )
 from mlca_verify.codegen import drift, foreign, generate, write
 from mlca_verify.conform import CHECKS, conform
-from mlca_verify.conform.checks import CheckOutcome
+from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.emit import emit

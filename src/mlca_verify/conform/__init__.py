@@ -9,8 +9,9 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.codegen import data_ir, drift, generate, machine_ir
-from mlca_verify.conform.checks import CHECKS, CheckOutcome, Target, run_checks
-from mlca_verify.conform.data import DATA_CHECKS, DataTarget
+from mlca_verify.conform.checks import SUITE, Subject
+from mlca_verify.conform.data import DATA_SUITE, DataSubject
+from mlca_verify.conform.outcome import CHECKS, CheckOutcome, run_checks
 from mlca_verify.errors import UsageError
 from mlca_verify.layout import Layout
 from mlca_verify.spec import LoadedSpec
@@ -73,40 +74,14 @@ def conform(
 ) -> Conformance:
     """Run `checks` on the code for `spec` found in `generated`; `report` sees each outcome as it lands."""
     if spec.machine.has_data:
-        return _conform_data(spec, generated, checks, report, sequences=sequences, template_dir=template_dir)
+        data = data_ir(spec, generated)
+        layout, fresh = _present(spec, generated, data.module, template_dir, report)
+        with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
+            subject = DataSubject(spec.machine, data, layout, Path(build), sequences)
+            return Conformance(spec, [fresh, *run_checks(subject, checks, DATA_SUITE, report)])
     ir = machine_ir(spec, generated)
     layout, fresh = _present(spec, generated, ir.module, template_dir, report)
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
-        target = Target(spec, ir, layout, Path(build), sequences)
-        outcomes = run_checks(target, checks, report)
-    return Conformance(spec, [fresh, *outcomes])
-
-
-def _conform_data(
-    spec: LoadedSpec,
-    generated: Path,
-    checks: list[str],
-    report: Callable[[CheckOutcome], None],
-    *,
-    sequences: int,
-    template_dir: Path | None,
-) -> Conformance:
-    ir = data_ir(spec, generated)
-    layout, fresh = _present(spec, generated, ir.module, template_dir, report)
-    outcomes: list[CheckOutcome] = []
-    with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
-        target = DataTarget(spec.machine, ir, layout, Path(build), sequences)
-        wanted = [n for n in checks if n in DATA_CHECKS]
-        if any(n != "compile" for n in wanted) and "compile" not in wanted:
-            wanted.insert(0, "compile")
-        for name in wanted:
-            outcome = DATA_CHECKS[name](target)
-            report(outcome)
-            outcomes.append(outcome)
-        for name in checks:
-            if name not in DATA_CHECKS:
-                why = "not run: no contracts are generated for a machine with data yet (see the README)"
-                outcome = CheckOutcome(name, True, why, data={"skipped": True})
-                report(outcome)
-                outcomes.append(outcome)
-    return Conformance(spec, [fresh, *outcomes])
+        return Conformance(
+            spec, [fresh, *run_checks(Subject(spec, ir, layout, Path(build), sequences), checks, SUITE, report)]
+        )

@@ -11,14 +11,13 @@ import itertools
 import os
 import re
 import shutil
-import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
-from typing import Any
 
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.codegen.render import render_template
+from mlca_verify.conform.outcome import CheckOutcome, Suite
 from mlca_verify.conform.reference import Reference
 from mlca_verify.errors import ToolError
 from mlca_verify.layout import Layout
@@ -30,36 +29,15 @@ OUT_OF_RANGE = 3  # values past the last state tried as out-of-range states
 SEQUENCE_SEED = 20261125  # fixed: the same sequences on every run and every machine
 
 
-@dataclass
-class CheckOutcome:
-    name: str
-    ok: bool
-    detail: str
-    seconds: float = 0.0
-    data: dict[str, Any] = field(default_factory=dict)
-
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "ok": self.ok,
-            "detail": self.detail,
-            "seconds": round(self.seconds, 3),
-            "data": self.data,
-        }
-
-
-@dataclass
-class Target:
-    """One spec and the generated files that claim to implement it."""
+@dataclass(frozen=True)
+class Subject:
+    """One spec without data and the generated files that claim to implement it."""
 
     spec: LoadedSpec
     ir: MachineIR
     layout: Layout  # absolute paths
     build: Path
     sequences: int = 200
-    py: PythonMachine | None = None
-    c: CMachine | None = None
-    reference: Reference | None = None
 
     @property
     def state_values(self) -> list[int]:
@@ -73,47 +51,52 @@ class Target:
     def c_file(self) -> Path:
         return self.layout.c_source
 
+    @cached_property
+    def expected(self) -> dict[tuple[int, tuple[bool, ...]], tuple[int, bool, list[str]]]:
+        """(state value, inputs) -> (next state value, invariants hold, failing invariant ids), by z3."""
+        ref = Reference(self.spec.machine)
+        table = {}
+        for value in self.state_values:
+            name = self.state_name(value)
+            for inputs in valuations(ref.machine.input_names):
+                nxt = self.ir.states.index(ref.next_state(name, inputs))
+                failing = ["state-range"] if name is None else ref.failing_invariants(name, inputs)
+                table[(value, tuple(inputs.values()))] = (nxt, not failing, failing)
+        return table
+
+
+@dataclass(frozen=True)
+class Code:
+    """The code `compile` built and loaded: the generated Python, and the C as an extension module."""
+
+    py: PythonMachine
+    c: CMachine
+
 
 def valuations(names: tuple[str, ...]) -> list[dict[str, bool]]:
     return [dict(zip(names, bits, strict=True)) for bits in itertools.product([False, True], repeat=len(names))]
 
 
-Check = Callable[[Target], CheckOutcome]
-
-
-def compile_and_load(t: Target) -> CheckOutcome:
+def compile_and_load(t: Subject) -> tuple[CheckOutcome, Code | None]:
     obj = t.build / f"{t.ir.module}_fsm.o"
     ran = run(["gcc", *C_FLAGS, "-O2", "-c", "-o", str(obj), str(t.c_file)], timeout=120)
     if ran.returncode != 0:
-        return CheckOutcome("compile", False, f"gcc {' '.join(C_FLAGS)} failed:\n{ran.output.strip()}")
-    t.c = build_c(t.layout, t.ir, t.build, f"_conform_{t.ir.module}_c")
-    t.py = load_python(t.layout, t.spec.machine.input_names, f"_conform_{t.ir.module}_fsm")
+        return CheckOutcome("compile", False, f"gcc {' '.join(C_FLAGS)} failed:\n{ran.output.strip()}"), None
+    c = build_c(t.layout, t.ir, t.build, f"_conform_{t.ir.module}_c")
+    py = load_python(t.layout, t.spec.machine.input_names, f"_conform_{t.ir.module}_fsm")
     warnings = ran.output.strip()
-    return CheckOutcome("compile", True, f"gcc {' '.join(C_FLAGS)}: no diagnostics{warnings and ': ' + warnings}")
+    detail = f"gcc {' '.join(C_FLAGS)}: no diagnostics{warnings and ': ' + warnings}"
+    return CheckOutcome("compile", True, detail), Code(py, c)
 
 
-def _expected(t: Target) -> dict[tuple[int, tuple[bool, ...]], tuple[int, bool, list[str]]]:
-    """(state value, inputs) -> (next state value, invariants hold, failing invariant ids), by z3."""
-    ref = t.reference = t.reference or Reference(t.spec.machine)
-    table = {}
-    for value in t.state_values:
-        name = t.state_name(value)
-        for inputs in valuations(ref.machine.input_names):
-            nxt = t.ir.states.index(ref.next_state(name, inputs))
-            failing = ["state-range"] if name is None else ref.failing_invariants(name, inputs)
-            table[(value, tuple(inputs.values()))] = (nxt, not failing, failing)
-    return table
-
-
-def exhaustive(t: Target) -> CheckOutcome:
-    if t.py is None or t.c is None:
-        return CheckOutcome("exhaustive", False, "not run: the code did not compile")
+def exhaustive(t: Subject, code: Code) -> CheckOutcome:
     names = t.spec.machine.input_names
     mismatches = []
-    table = _expected(t)
+    table = t.expected
+    py, c = code.py, code.c
     for (value, bits), (nxt, hold, failing) in table.items():
         inputs = dict(zip(names, bits, strict=True))
-        got = (t.py.step(value, bits), t.c.step(value, bits), t.py.failing(value, bits), t.c.holds(value, bits))
+        got = (py.step(value, bits), c.step(value, bits), py.failing(value, bits), c.holds(value, bits))
         if got != (nxt, nxt, failing, hold):
             mismatches.append(
                 f"state {value}, inputs {inputs}: z3 {nxt} {failing}, Python {got[0]} {got[2]}, C {got[1]} {got[3]}"
@@ -130,13 +113,11 @@ def exhaustive(t: Target) -> CheckOutcome:
     return CheckOutcome("exhaustive", True, detail, data={"cases": cases})
 
 
-def sequences(t: Target) -> CheckOutcome:
-    if t.py is None or t.c is None:
-        return CheckOutcome("sequences", False, "not run: the code did not compile")
+def sequences(t: Subject, code: Code) -> CheckOutcome:
     from hypothesis import HealthCheck, given, seed, settings  # only here: keeps every other command's start fast
     from hypothesis import strategies as st
 
-    py, c = t.py, t.c
+    py, c = code.py, code.c
     names = t.spec.machine.input_names
     proved = {i.id for i in t.ir.invariants if i.proved}
     steps = {"count": 0}
@@ -172,7 +153,7 @@ _WP_BAD = re.compile(r"\[wp\] \[[^\]]+\] Goal (\S+) : (Timeout|Unknown|Failed|St
 _WP_GOAL = re.compile(r"^\[wp\] \[([^\]]+)\] Goal (\S+) : (\w+)", re.MULTILINE)
 
 
-def frama_c(t: Target) -> CheckOutcome:
+def frama_c(t: Subject) -> CheckOutcome:
     return wp_file(t.c_file, t.build)
 
 
@@ -239,7 +220,7 @@ CPPCHECK = (
 )
 
 
-def cppcheck(t: Target) -> CheckOutcome:
+def cppcheck(t: Subject) -> CheckOutcome:
     return cppcheck_file(t.c_file, t.build)
 
 
@@ -279,7 +260,7 @@ def library_calls(calls: list[str]) -> list[str]:
     return [name for name in calls if not RUNTIME_HELPER.fullmatch(name)]
 
 
-def cross_build(t: Target) -> CheckOutcome:
+def cross_build(t: Subject) -> CheckOutcome:
     obj = t.build / f"{t.ir.module}_fsm.arm.o"
     ran = run(["arm-none-eabi-gcc", *C_FLAGS, *ARM_FLAGS, "-c", "-o", str(obj), str(t.c_file)], timeout=120)
     if ran.returncode != 0:
@@ -298,7 +279,7 @@ def cross_build(t: Target) -> CheckOutcome:
     return CheckOutcome("cortex-m4", data == 0 and bss == 0 and not calls, detail, data=info)
 
 
-def sanitizers(t: Target) -> CheckOutcome:
+def sanitizers(t: Subject) -> CheckOutcome:
     harness = t.build / f"{t.ir.module}_harness.c"
     harness.write_text(render_template("c_harness.c.j2", m=t.ir, extra=OUT_OF_RANGE), encoding="utf-8")
     exe = t.build / f"{t.ir.module}_harness"
@@ -312,7 +293,7 @@ def sanitizers(t: Target) -> CheckOutcome:
     done = run([str(exe)], timeout=120, env=env)
     if done.returncode != 0:
         return CheckOutcome("sanitizers", False, f"the harness failed under ASan/UBSan:\n{done.output.strip()[-2000:]}")
-    table = _expected(t)
+    table = t.expected
     got = {}
     for line in done.output.splitlines():
         value, bits, nxt, hold = (int(x) for x in line.split())
@@ -345,29 +326,8 @@ def _invalid_bool_caught(exe: Path, env: dict[str, str], reads_inputs: bool) -> 
     return f"a step on inputs outside 0/1 was not reported by -fsanitize=bool:\n{ran.output.strip()[-500:]}"
 
 
-CHECKS: dict[str, Check] = {
-    "compile": compile_and_load,
-    "exhaustive": exhaustive,
-    "sequences": sequences,
-    "frama-c-wp": frama_c,
-    "cppcheck": cppcheck,
-    "cortex-m4": cross_build,
-    "sanitizers": sanitizers,
-}
-
-
-NEED_LOADED_CODE = frozenset({"exhaustive", "sequences"})  # they call the code that "compile" builds and loads
-
-
-def run_checks(t: Target, names: list[str], report: Callable[[CheckOutcome], None]) -> list[CheckOutcome]:
-    """Run `names` in order; "compile" is run first, and reported, when a check needs it and it was not asked."""
-    if NEED_LOADED_CODE & set(names) and "compile" not in names:
-        names = ["compile", *names]
-    outcomes = []
-    for name in names:
-        start = time.perf_counter()
-        outcome = CHECKS[name](t)
-        outcome.seconds = time.perf_counter() - start
-        report(outcome)
-        outcomes.append(outcome)
-    return outcomes
+SUITE: Suite[Subject, Code] = Suite(
+    compile_and_load,
+    {"exhaustive": exhaustive, "sequences": sequences},
+    {"frama-c-wp": frama_c, "cppcheck": cppcheck, "cortex-m4": cross_build, "sanitizers": sanitizers},
+)

@@ -28,14 +28,8 @@ from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
-from mlca_verify.conform.checks import (
-    ARM_FLAGS,
-    CheckOutcome,
-    cppcheck_file,
-    external_calls,
-    library_calls,
-    wp_file,
-)
+from mlca_verify.conform.checks import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
+from mlca_verify.conform.outcome import CheckOutcome, Suite
 from mlca_verify.layout import Layout
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
@@ -56,17 +50,23 @@ SUBNORMAL = 5e-324
 REAL_TOLERANCE = 1e-9
 
 
-@dataclass
-class DataTarget:
-    """A machine with data and its generated files, with the builds the checks share."""
+@dataclass(frozen=True)
+class DataSubject:
+    """A machine with data and its generated files."""
 
     machine: Machine
     ir: DataIR
     layout: Layout
     build: Path
     sequences: int
-    py: ModuleType | None = None
-    harness: Path | None = None
+
+
+@dataclass(frozen=True)
+class DataCode:
+    """The code `compile` built and loaded: the generated Python module, and the C harness over the generated C."""
+
+    py: ModuleType
+    harness: Path
 
 
 Row = tuple[Any, ...]  # a context and the inputs of one step, in the harness's order
@@ -283,7 +283,7 @@ def _z3_value(value: object, kind: Type, bounds: tuple[Fraction, Fraction] | Non
 # --- checks ------------------------------------------------------------------------------------------------
 
 
-def build_harness(t: DataTarget, name: str, extra: Sequence[str]) -> tuple[Path | None, str]:
+def build_harness(t: DataSubject, name: str, extra: Sequence[str]) -> tuple[Path | None, str]:
     source = t.build / "harness.c"
     source.write_text(render_template("data_harness.c.j2", m=t.ir), encoding="utf-8")
     exe = t.build / name
@@ -304,12 +304,13 @@ def build_harness(t: DataTarget, name: str, extra: Sequence[str]) -> tuple[Path 
     return (exe if ran.returncode == 0 else None), ran.output.strip()
 
 
-def compile_and_load(t: DataTarget) -> CheckOutcome:
-    t.harness, output = build_harness(t, "harness", ["-O2"])
-    if t.harness is None:
-        return CheckOutcome("compile", False, f"gcc failed:\n{output}")
-    t.py = import_generated(t.layout.python, f"mlca_generated_{t.ir.module}")
-    return CheckOutcome("compile", True, f"gcc {' '.join(C_FLAGS)} -O2 -ffp-contract=off: no warning; Python imported")
+def compile_and_load(t: DataSubject) -> tuple[CheckOutcome, DataCode | None]:
+    harness, output = build_harness(t, "harness", ["-O2"])
+    if harness is None:
+        return CheckOutcome("compile", False, f"gcc failed:\n{output}"), None
+    py = import_generated(t.layout.python, f"mlca_generated_{t.ir.module}")
+    detail = f"gcc {' '.join(C_FLAGS)} -O2 -ffp-contract=off: no warning; Python imported"
+    return CheckOutcome("compile", True, detail), DataCode(py, harness)
 
 
 def run_harness(exe: Path, rows: Sequence[Row], columns: Columns) -> list[Row]:
@@ -320,19 +321,17 @@ def run_harness(exe: Path, rows: Sequence[Row], columns: Columns) -> list[Row]:
     return [columns.parse(line) for line in ran.output.splitlines()]
 
 
-def exhaustive(t: DataTarget) -> CheckOutcome:
+def exhaustive(t: DataSubject, code: DataCode) -> CheckOutcome:
     """The boundary set: Python and C bit for bit, and both as z3's semantics of the spec says; from a mode that
     names no state, both restart in the fallback mode with the initial values."""
-    if t.py is None or t.harness is None:
-        return CheckOutcome("exhaustive", False, "not run: the code did not compile")
     columns, z3_step = Columns(t.ir), Semantics(t.machine)
     rows = list(boundary_rows(t.ir))
     restarts = restart_rows(t.ir, rows)
-    c_rows = run_harness(t.harness, [*rows, *restarts], columns)
+    c_rows = run_harness(code.harness, [*rows, *restarts], columns)
     keep = 1 + len(t.ir.variables)
     outputs = slice(keep + len(t.ir.registers) + 1, keep + len(t.ir.registers) + 1 + len(t.ir.outputs))
     for row, c_after in zip(rows, c_rows[: len(rows)], strict=True):
-        differ = _languages_differ(t.py, columns, row, c_after)
+        differ = _languages_differ(code.py, columns, row, c_after)
         if differ:
             return CheckOutcome("exhaustive", False, differ)
         mode, variables, outs = z3_step.step(row)
@@ -342,7 +341,7 @@ def exhaustive(t: DataTarget) -> CheckOutcome:
             return CheckOutcome(
                 "exhaustive", False, f"the code and the spec (z3) differ from {row}: {ours} vs {theirs}"
             )
-    failed = _restart_failure(t.py, columns, restarts, c_rows[len(rows) :])
+    failed = _restart_failure(code.py, columns, restarts, c_rows[len(rows) :])
     if failed:
         return CheckOutcome("exhaustive", False, failed)
     detail = (
@@ -409,11 +408,9 @@ def _invariant_standing(machine: Machine) -> tuple[set[str], dict[str, str]]:
     return proved, said
 
 
-def sequences(t: DataTarget) -> CheckOutcome:
+def sequences(t: DataSubject, code: DataCode) -> CheckOutcome:
     """Random runs from the initial context, each step fed to Python and C alike; the invariants the engine
     proves must hold (the first failure of any other is reported, with what the engine says of it)."""
-    if t.py is None or t.harness is None:
-        return CheckOutcome("sequences", False, "not run: the code did not compile")
     columns = Columns(t.ir)
     proved, said = _invariant_standing(t.machine)
     assumed = _assumptions(t.machine, t.ir)
@@ -421,7 +418,7 @@ def sequences(t: DataTarget) -> CheckOutcome:
     total = outside = 0
     for seed in range(max(1, t.sequences // 100)):
         rng = random.Random(seed)
-        ctx = t.py.Context()
+        ctx = code.py.Context()
         row: Row = (int(ctx.mode), *[getattr(ctx, v.name) for v in t.ir.variables])
         row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.registers), 1)
         rows: list[Row] = []
@@ -431,7 +428,7 @@ def sequences(t: DataTarget) -> CheckOutcome:
             row = _drawn(row, t.ir, rng, assumed)
             inside = inside and assumed(row)
             outside += not inside
-            after = columns.python_step(t.py, row)
+            after = columns.python_step(code.py, row)
             rows.append(row)
             py_rows.append(after)
             failing = [inv.id for inv, bit in zip(t.ir.invariants, after[-len(t.ir.invariants) :], strict=False) if bit]
@@ -441,7 +438,7 @@ def sequences(t: DataTarget) -> CheckOutcome:
             for inv in failing:
                 seen.setdefault(inv, f"{inv} ({said.get(inv, 'not proved')}) fails at seed {seed}, step {len(rows)}")
             row = after[: 1 + len(t.ir.variables) + len(t.ir.registers) + 1]
-        c_rows = run_harness(t.harness, rows, columns)
+        c_rows = run_harness(code.harness, rows, columns)
         for k, (a, b) in enumerate(zip(py_rows, c_rows, strict=True)):
             if not all(_same(x, y) for x, y in zip(a, b, strict=True)):
                 return CheckOutcome("sequences", False, f"seed {seed}, step {k + 1}: Python {a}, C {b}")
@@ -488,7 +485,7 @@ def _assumptions(machine: Machine, ir: DataIR) -> Callable[[Row], bool]:
     return holds
 
 
-def sanitizers(t: DataTarget) -> CheckOutcome:
+def sanitizers(t: DataSubject) -> CheckOutcome:
     exe, output = build_harness(t, "harness-san", list(SANITIZE))
     if exe is None:
         return CheckOutcome("sanitizers", False, f"gcc failed:\n{output}")
@@ -501,7 +498,7 @@ def sanitizers(t: DataTarget) -> CheckOutcome:
     return CheckOutcome("sanitizers", True, f"{len(rows)} boundary steps under {' '.join(SANITIZE[:1])}: no report")
 
 
-def cross_build(t: DataTarget) -> CheckOutcome:
+def cross_build(t: DataSubject) -> CheckOutcome:
     obj = t.build / "m4.o"
     su = t.build / "m4.su"
     ran = run(
@@ -551,7 +548,7 @@ WP_STEPS = 40_000_000
 WP_FLAGS = ("-wp-steps", str(WP_STEPS), "-warn-special-float", "none", "-wp-prop=-binary64")
 
 
-def frama_c(t: DataTarget) -> CheckOutcome:
+def frama_c(t: DataSubject) -> CheckOutcome:
     """WP: no runtime error (integer overflow included), the step equal to the spec's transition relation (the
     transition that fires, by the ACSL behaviours of each mode, and the context and outputs after it), variables
     kept in range, the mode a state. The IEEE 754 special values are allowed (-warn-special-float none): NaN and
@@ -581,7 +578,7 @@ def frama_c(t: DataTarget) -> CheckOutcome:
     return replace(outcome, detail=outcome.detail + note, data=data)
 
 
-def _outputs_proved(t: DataTarget, outputs: str) -> CheckOutcome:
+def _outputs_proved(t: DataSubject, outputs: str) -> CheckOutcome:
     """WP on the outputs' function; where a goal is left, again with each goal split at its conditionals. The
     split proves an int output that multiplies two values read from the spec (a nonlinear goal z3 leaves
     unknown whole); it is not the first try, because a split goal that compares binary64 values makes z3
@@ -616,7 +613,7 @@ def _joined(step: CheckOutcome, outputs: CheckOutcome) -> CheckOutcome:
     return CheckOutcome("frama-c-wp", True, detail, data=data)
 
 
-def certified_invariants(t: DataTarget) -> CheckOutcome:
+def certified_invariants(t: DataSubject) -> CheckOutcome:
     """The invariants the engine proves for every param in range, as postconditions of a wrapper of the step
     with their certificates as precondition, proved by WP from the step's contract (see `codegen.certified`)."""
     results = check_data_machine(t.machine, Limits(), parametric=True)
@@ -669,7 +666,7 @@ def _certified(results: Sequence[Result]) -> list[Proved]:
     ]
 
 
-def _reached_ranges(t: DataTarget, results: Sequence[Result]) -> tuple[list[str], list[str]]:
+def _reached_ranges(t: DataSubject, results: Sequence[Result]) -> tuple[list[str], list[str]]:
     """The variables whose range the step's contract requires without ensuring it (one step does not keep it from
     every context in range), and those of them whose range:<name> the engine does not prove for every param."""
     verdicts = {r.prop: r.verdict for r in results}
@@ -707,16 +704,12 @@ def binary64_goals(ir: DataIR) -> list[str]:
     return clauses
 
 
-def cppcheck(t: DataTarget) -> CheckOutcome:
+def cppcheck(t: DataSubject) -> CheckOutcome:
     return cppcheck_file(t.layout.c_source, t.build)
 
 
-DATA_CHECKS = {
-    "frama-c-wp": frama_c,
-    "cppcheck": cppcheck,
-    "compile": compile_and_load,
-    "exhaustive": exhaustive,
-    "sequences": sequences,
-    "cortex-m4": cross_build,
-    "sanitizers": sanitizers,
-}
+DATA_SUITE: Suite[DataSubject, DataCode] = Suite(
+    compile_and_load,
+    {"exhaustive": exhaustive, "sequences": sequences},
+    {"frama-c-wp": frama_c, "cppcheck": cppcheck, "cortex-m4": cross_build, "sanitizers": sanitizers},
+)

@@ -25,8 +25,7 @@ import z3
 from mlca_verify.codegen import data_ir, machine_ir
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, DATA_SHARED, DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
-from mlca_verify.conform.checks import CheckOutcome
-from mlca_verify.conform.data import DATA_CHECKS
+from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
 from mlca_verify.evidence import coverage, physics
@@ -113,7 +112,7 @@ def collect(
     loaded_readings = [load_spec(p, compare=False) for p in readings]
     transitions = tuple(t.id for t in spec.machine.transitions)
     loop = closed_loop(runs, spec.machine.name.lower(), transitions)  # every input read before the long work
-    checks = list(DATA_CHECKS if spec.machine.has_data else CHECKS)
+    checks = list(CHECKS)
     results = check_all(spec.machine)
     outcomes = conform(spec, generated, checks, lambda _: None).outcomes
     ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, replay=replay)
@@ -575,7 +574,7 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
         node(f"A{k}", "assumption", text, "S1", link=f"#assume-{anchor(a.id)}")
     proofs_goal(node, ev.results, with_how=True)
     _parametric_goal(node, ev)
-    code_goals(node, ev.outcomes, DATA_CHECKS, 4)
+    code_goals(node, ev.outcomes, CHECKS, 4)
     loop_goal(node, ev.loop, 7, "no closed-loop results given")
     if ev.physics:
         physics_goal(node, ev, 8)
