@@ -17,6 +17,7 @@ import sys
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from fractions import Fraction
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -71,8 +72,11 @@ def tool_versions() -> dict[str, str]:
     return versions
 
 
-@dataclass
+@dataclass(frozen=True)
 class Evidence:
+    """Everything collected for one spec, built once (`collect`) and not changed after: its JSON document
+    (`data`) is made from it when first asked for."""
+
     spec: LoadedSpec
     results: list[Result]
     outcomes: list[CheckOutcome]
@@ -80,11 +84,15 @@ class Evidence:
     readings: list[LoadedSpec]
     generated_at: str
     loop: dict[str, Any] = field(default_factory=dict)  # closed_loop() of the runs given, read once
-    data: dict[str, Any] = field(default_factory=dict)
     replay: dict[str, Any] | None = None  # `mlca-sim replay --json` of lemma counterexamples, checked, if given
     physics: dict[str, Any] = field(default_factory=dict)  # physics.section(), for a spec with lemmas
     smt2: dict[str, str] = field(default_factory=dict)  # bundle path -> each lemma's SMT-LIB query, made once
     coverage: dict[str, Any] = field(default_factory=dict)  # coverage.section() of the generated suite, if run
+
+    @cached_property
+    def data(self) -> dict[str, Any]:
+        """The evidence's JSON document."""
+        return document(self)
 
     @property
     def ok(self) -> bool:
@@ -112,18 +120,26 @@ def collect(
     loaded_readings = [load_spec(p, compare=False) for p in readings]
     transitions = tuple(t.id for t in spec.machine.transitions)
     loop = closed_loop(runs, spec.machine.name.lower(), transitions)  # every input read before the long work
-    checks = list(CHECKS)
     results = check_all(spec.machine)
-    outcomes = conform(spec, generated, checks, lambda _: None).outcomes
-    ev = Evidence(spec, results, outcomes, generated, loaded_readings, generated_at, replay=replay)
-    ev.loop = loop
-    if spec.machine.lemmas:
-        ev.smt2 = physics.smt2_files(spec.machine)
-        ev.physics = physics.section(spec.machine, spec.sha256, results, replay, ev.smt2)
+    outcomes = conform(spec, generated, list(CHECKS), lambda _: None).outcomes
+    smt2 = physics.smt2_files(spec.machine) if spec.machine.lemmas else {}
+    physics_part = physics.section(spec.machine, spec.sha256, results, replay, smt2) if spec.machine.lemmas else {}
+    tested: dict[str, Any] = {}
     if tests_out is not None:
-        ev.coverage = coverage.section(coverage.run_suite(spec, generated, tests_out), loop, tests_out.parent)
-    ev.data = document(ev)
-    return ev
+        tested = coverage.section(coverage.run_suite(spec, generated, tests_out), loop, tests_out.parent)
+    return Evidence(
+        spec,
+        results,
+        outcomes,
+        generated,
+        loaded_readings,
+        generated_at,
+        loop=loop,
+        replay=replay,
+        physics=physics_part,
+        smt2=smt2,
+        coverage=tested,
+    )
 
 
 # --- the JSON document ------------------------------------------------------------------------------------
