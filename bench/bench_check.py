@@ -28,7 +28,7 @@ import z3
 from mlca_verify.codegen import generate
 from mlca_verify.errors import Loc
 from mlca_verify.logic import check_all
-from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.model import BinOp, Expr, Input, Invariant, Liveness, Machine, Not, StateIn, Transition, Var

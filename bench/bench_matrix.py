@@ -29,7 +29,7 @@ from pathlib import Path
 from sim_check.cli import main as sim_main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
 from sim_check.db import ResultsDB
-from sim_check.results import RunResult
+from sim_check.run_results import RunResult
 from sim_check.runner import run_once, run_plain
 from sim_check.scenario import load_scenario
 

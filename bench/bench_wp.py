@@ -23,8 +23,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_check import GREEN, crossing_expanded, crossing_timed  # noqa: E402
 from mlca_verify.codegen import generate  # noqa: E402
-from mlca_verify.conform.checks import wp_file  # noqa: E402
-from mlca_verify.conform.data import WP_FLAGS  # noqa: E402
+from mlca_verify.conform.bool_code import wp_file  # noqa: E402
+from mlca_verify.conform.data_code import WP_FLAGS  # noqa: E402
 from mlca_verify.spec import load_spec  # noqa: E402
 
 

@@ -23,7 +23,7 @@ from mlca_verify.escape import terminal
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
 from sim_check.db import Plan, ResultsDB
 from sim_check.replay import MAX_REPLAY_POINTS
-from sim_check.results import MARKS_KM, Job, RunResult
+from sim_check.run_results import MARKS_KM, Job, RunResult
 from sim_check.scenario import LIMITS, MAX_SEED, Scenario, load_scenario
 
 if TYPE_CHECKING:  # SUMO and the plotting libraries are the `sim` extra: imported by the commands that use them

@@ -19,9 +19,7 @@ from typing import Any, Literal
 from mlca_verify.codegen import data_ir, machine_ir
 from mlca_verify.errors import UsageError
 from mlca_verify.layout import Layout
-from mlca_verify.model import Machine, evaluate
-from mlca_verify.spec import load_spec
-from mlca_verify.targets import (
+from mlca_verify.loading import (
     HOLDS,
     STATE_BITS,
     DataCMachine,
@@ -33,6 +31,8 @@ from mlca_verify.targets import (
     import_generated,
     load_python,
 )
+from mlca_verify.model import Machine, evaluate
+from mlca_verify.spec import load_spec
 from sim_check.package_data import GENERATED, SPECS
 from sim_check.signals import SENSED
 
@@ -200,7 +200,7 @@ class Controller:
 class DataController:
     """A generated machine with data (its whole decision function) behind one interface: `context()` is a new
     context, `advance(context, *values)` one step and its monitor, answered as (packed, *outputs) (see
-    mlca_verify.targets.DataPythonMachine); values are the boolean inputs `inputs`, then the signals `signals`.
+    mlca_verify.loading.DataPythonMachine); values are the boolean inputs `inputs`, then the signals `signals`.
     `transitions` names the transitions by number from 1, `flags` the boolean definitions whose values the answer
     holds, and `command_at` the place of the output `command` (+1 left, -1 right, 0 none) among the outputs."""
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mlca_verify.errors import UsageError
-from sim_check.results import Job
+from sim_check.run_results import Job
 from sim_check.schema import LEASES, RUN_TABLES
 from sim_check.transactions import file_of, retrying
 

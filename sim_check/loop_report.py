@@ -13,7 +13,7 @@ from mlca_verify.model import Machine, show
 from mlca_verify.spec import load_spec
 from sim_check.controllers import SETUPS
 from sim_check.db import LoopRows
-from sim_check.results import SHADOW, SIDES
+from sim_check.run_results import SHADOW, SIDES
 
 SIDE_NAMES = {1: "left", -1: "right"}
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim_check.results import MARKS_KM
+from sim_check.run_results import MARKS_KM
 
 MARKS = MARKS_KM  # Sec. IV-B: lane changes counted at 5, 10, 15 and 20 km
 

@@ -34,7 +34,7 @@ from sim_check.paper_results import (
     Claim,
     LaneFigure,
 )
-from sim_check.results import STATES
+from sim_check.run_results import STATES
 from sim_check.stats import ClaimVerdict, extreme_verdict, mean_ci, reduction_verdict
 
 Key = tuple[str, int]  # controller, AVs

@@ -35,12 +35,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.targets import DEFS_SHIFT, FIRED_MASK, FIRED_SHIFT, HOLDS, STATE_BITS
+from mlca_verify.loading import DEFS_SHIFT, FIRED_MASK, FIRED_SHIFT, HOLDS, STATE_BITS
 from sim_check import mobil, rss, ssm
 from sim_check.controllers import Controller, DataController, Setup, load_controller, setup_of
 from sim_check.need import URGENT_M, Need, middle_goal, sumo_wish
 from sim_check.reads import Leader, Reads
-from sim_check.results import SIDES, AvMetrics, Episode, RunResult, Violation
+from sim_check.run_results import SIDES, AvMetrics, Episode, RunResult, Violation
 from sim_check.scenario import Scenario, build, sumo_command
 from sim_check.sensing import LaneClaim, Network, claimed, sense
 from sim_check.signals import UNSENSED, signals

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Literal
 
 from mlca_verify.errors import UsageError
-from sim_check.results import MARKS_KM, MECHANISM, SAFETY, SHADOW, STATES
+from sim_check.run_results import MARKS_KM, MECHANISM, SAFETY, SHADOW, STATES
 
 APPLICATION_ID = 0x4D4C4353  # "MLCS": this file is a results database of mlca-sim
 SCHEMA_VERSION = 3

@@ -32,7 +32,7 @@ from typing import Any
 from mlca_verify.errors import UsageError
 from sim_check.db import ResultsDB
 from sim_check.leases import Owner
-from sim_check.results import Job, RunResult
+from sim_check.run_results import Job, RunResult
 from sim_check.runner import run_once
 from sim_check.scenario import Scenario
 

@@ -12,11 +12,11 @@ import pytest
 
 from mlca_verify.codegen import generate, write
 from mlca_verify.conform import conform
+from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
 from mlca_verify.logic.binary64 import UNIT, Rounding, nearest
 from mlca_verify.logic.results import Result
 from mlca_verify.spec import load_spec, load_text
-from mlca_verify.targets import import_generated
 
 TIMER = """
 [machine]

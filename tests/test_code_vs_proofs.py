@@ -19,12 +19,12 @@ from hypothesis import strategies as st
 
 from mlca_verify.codegen import generate, write
 from mlca_verify.errors import CodegenError
+from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec
-from mlca_verify.targets import import_generated
 from tests.test_data_vs_bruteforce import specs
 
 MACHINES = 500  # random machines, in two classes

@@ -73,7 +73,7 @@ def test_c_calls_no_library_and_nothing_recursive(spec: str, tmp_path: Path) -> 
 
 def test_python_api(tmp_path: Path) -> None:
     from mlca_verify.layout import Layout
-    from mlca_verify.targets import load_python
+    from mlca_verify.loading import load_python
 
     mod = load_python(Layout(GENERATED, "mlca"), ("N", "W", "L", "R"), "_test_mlca_fsm").module
     moving = mod.Inputs(N=True, W=False, L=True, R=False)

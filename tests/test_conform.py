@@ -17,7 +17,7 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import Subject, cppcheck, external_calls, frama_c, library_calls
+from mlca_verify.conform.bool_code import Subject, cppcheck, external_calls, frama_c, library_calls
 from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.layout import Layout
 from mlca_verify.logic import check_all

@@ -12,8 +12,8 @@ import pytest
 from bench.bench_corpus import weakened
 
 from mlca_verify.cli import main
-from mlca_verify.conform.checks import CheckOutcome
-from mlca_verify.conform.data import DATA_CHECKS
+from mlca_verify.conform.bool_code import CheckOutcome
+from mlca_verify.conform.data_code import DATA_CHECKS
 from mlca_verify.evidence.collect import Evidence, data_argument
 from mlca_verify.logic import check_all
 from mlca_verify.spec import load_spec

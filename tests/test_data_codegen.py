@@ -17,10 +17,10 @@ import pytest
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate
 from mlca_verify.conform import conform
-from mlca_verify.conform.checks import WP
-from mlca_verify.conform.data import WP_FLAGS
+from mlca_verify.conform.bool_code import WP
+from mlca_verify.conform.data_code import WP_FLAGS
+from mlca_verify.loading import import_generated
 from mlca_verify.spec import load_spec
-from mlca_verify.targets import import_generated
 from mlca_verify.tools import C_FLAGS
 from tests.conftest import ROOT
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.equiv import compare
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine

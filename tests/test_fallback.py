@@ -17,9 +17,9 @@ from mlca_verify.diagram import FORMATS, render
 from mlca_verify.errors import SpecError
 from mlca_verify.evidence.collect import Evidence, document
 from mlca_verify.evidence.page import render_page
+from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
 from mlca_verify.spec import load_spec, load_text
-from mlca_verify.targets import import_generated
 from tests.conftest import ROOT
 
 DOOR = """\

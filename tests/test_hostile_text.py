@@ -21,8 +21,8 @@ from hypothesis import strategies as st
 
 from mlca_verify import ci_formats, diagram
 from mlca_verify.codegen import generate, write
-from mlca_verify.emit import emit
 from mlca_verify.logic import check_all
+from mlca_verify.regression_tests import emit
 from mlca_verify.spec import load_spec
 
 FIELDS = ("machine_cite", "machine_doc", "input_doc", "input_cite", "t_cite", "t_doc", "inv_cite", "inv_doc")

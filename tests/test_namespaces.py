@@ -14,9 +14,9 @@ import pytest
 
 from mlca_verify.codegen import generate, write
 from mlca_verify.errors import SpecError
+from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
 from mlca_verify.spec import load_spec
-from mlca_verify.targets import import_generated
 
 # A machine with one element of every role; each role's name is replaced in turn by an engine or code name.
 BASE = """

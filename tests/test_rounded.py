@@ -14,7 +14,7 @@ from mlca_verify.codegen import data_ir, generate, write
 from mlca_verify.codegen.data_ir import closing
 from mlca_verify.codegen.rounded import parts_of, rounded_parts
 from mlca_verify.conform import conform
-from mlca_verify.conform.data import binary64_goals
+from mlca_verify.conform.data_code import binary64_goals
 from mlca_verify.model import name_types, prevs_of, show
 from mlca_verify.spec import load_spec
 from mlca_verify.spec.expr_parser import parse_expr

@@ -14,7 +14,7 @@ from bench.wide import wide_spec
 from mlca_verify.codegen import machine_ir
 from mlca_verify.errors import SpecError
 from mlca_verify.logic import check_all
-from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.solver import Solver
 from mlca_verify.logic.tables import MAX_TABLE_INPUTS, MAX_WRITTEN_OUT
 from mlca_verify.model import Machine

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from mlca_verify.errors import ToolError
-from mlca_verify.targets import python_headers
+from mlca_verify.loading import python_headers
 from sim_check.controllers import load_controller, setup_of
 from sim_check.reads import Reads
-from sim_check.results import Violation
+from sim_check.run_results import Violation
 from sim_check.runner import TRACE_STEPS, ClosedLoop, run_once, run_plain, sumo_args
 from sim_check.scenario import build, load_scenario
 from sim_check.sensing import Network

@@ -24,7 +24,7 @@ from sim_check import schema, transactions
 from sim_check.cli import main
 from sim_check.db import MonitorSummary, ResultsDB
 from sim_check.leases import Owner, started_time
-from sim_check.results import AvMetrics, RunResult, Violation
+from sim_check.run_results import AvMetrics, RunResult, Violation
 from sim_check.scenario import load_scenario
 from tests.conftest import ROOT
 from tests.sim_helpers import SHORT

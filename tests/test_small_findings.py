@@ -23,7 +23,7 @@ from sim_check import sweep as sweep_module
 from sim_check.cli import main
 from sim_check.db import ResultsDB
 from sim_check.replay import MAX_REPLAY_POINTS, Phase, Point, load_points
-from sim_check.results import AvMetrics, Job, RunResult
+from sim_check.run_results import AvMetrics, Job, RunResult
 from tests.conftest import ROOT
 from tests.sim_helpers import SHORT, rows
 

@@ -511,7 +511,7 @@ def test_a_machine_without_invariants_or_outputs_and_a_state_without_decisions(
 
 def test_a_definition_is_read_where_the_short_circuit_reaches_it() -> None:
     from mlca_verify.model import Var, nodes
-    from mlca_verify.testgen.reads import paths
+    from mlca_verify.testgen.definition_reads import paths
 
     a, b, c = Var("a"), Var("L"), Var("c")
     assert paths(BinOp("and", a, b), "L") == [(a,)]

@@ -24,11 +24,11 @@ if TYPE_CHECKING:
     from mlca_verify.codegen import drift, generate, write
     from mlca_verify.conform import CHECKS, Conformance, conform
     from mlca_verify.layout import Layout
+    from mlca_verify.loading import build_c, load_python
     from mlca_verify.logic import check_all, compare
     from mlca_verify.logic.results import Result
     from mlca_verify.model import Machine
     from mlca_verify.spec import LoadedSpec, load_spec, load_text
-    from mlca_verify.targets import build_c, load_python
 
 # Imported on first use, so that a command loads only what it runs (the code generator and the conformance
 # checks pull in Jinja and Hypothesis, which `check` never needs).
@@ -47,8 +47,8 @@ _HOMES = {
     "load_spec": "mlca_verify.spec",
     "load_text": "mlca_verify.spec",
     "Layout": "mlca_verify.layout",
-    "build_c": "mlca_verify.targets",
-    "load_python": "mlca_verify.targets",
+    "build_c": "mlca_verify.loading",
+    "load_python": "mlca_verify.loading",
 }
 
 

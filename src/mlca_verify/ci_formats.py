@@ -7,11 +7,11 @@ from collections.abc import Sequence
 from typing import Any
 from xml.etree import ElementTree as ET
 
+from mlca_verify.check_report import trace_text
 from mlca_verify.errors import Loc
 from mlca_verify.escape import xml_text
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine
-from mlca_verify.report import trace_text
 from mlca_verify.version import __version__
 
 SARIF_SCHEMA = "https://json.schemastore.org/sarif-2.1.0.json"

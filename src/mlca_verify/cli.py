@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mlca_verify import ci_formats, cli_base, report, waves
+from mlca_verify import check_report, ci_formats, cli_base, waves
 from mlca_verify.cli_base import (
     DEPTH_LIMIT,
     EXIT_FINDING,
@@ -32,7 +32,6 @@ from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.diagram import FORMATS
 from mlca_verify.diagram import render as render_diagram
-from mlca_verify.emit import emit
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
 from mlca_verify.evidence import check_replay, collect, read_closed_loop, write_bundle
@@ -41,13 +40,14 @@ from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.lemmas import lemma_scripts
-from mlca_verify.logic.meaning import property_changes
+from mlca_verify.logic.property_diff import property_changes
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
-from mlca_verify.regress import transition_changes, verdict_changes
+from mlca_verify.regression_tests import emit
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
+from mlca_verify.spec_diff import transition_changes, verdict_changes
 from mlca_verify.testgen.command import tests as run_tests
 from mlca_verify.testgen.suite import DEPTH
 from mlca_verify.tools import run
@@ -221,10 +221,10 @@ def cmd_check(args: argparse.Namespace) -> int:
         checked.append((spec, results))
         if not args.quiet:
             assumed = [f"{a.id}: {show(a.expr)}" for a in spec.machine.assumptions]
-            say(report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names, assumed))
-        say(f"{spec.path}: {report.summary_text(results)}\n")
+            say(check_report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names, assumed))
+        say(f"{spec.path}: {check_report.summary_text(results)}\n")
     if args.json:
-        write_json(args.json, report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
+        write_json(args.json, check_report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
     for_ci = [(s.path, s.machine, r) for s, r in checked]
     if args.junit:
         write_text(args.junit, ci_formats.junit_xml(for_ci))
@@ -293,12 +293,12 @@ def cmd_diff(args: argparse.Namespace) -> int:
     old, new = (load_spec(p, confine=not args.allow_outside) for p in (args.left, args.right))
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
-    say(report.regression_text(changes, transition_changes(old.machine, new.machine)))
+    say(check_report.regression_text(changes, transition_changes(old.machine, new.machine)))
     was, now = old.machine.fallback_state, new.machine.fallback_state
     if was != now:  # the generated code's answer to a corrupted context: no verdict speaks of it
         say(f"fallback: a context whose state names no state now restarts in {now} (was {was})\n")
     meaning = property_changes(old.machine, new.machine, args.timeout_ms)
-    say(report.meaning_text(meaning))
+    say(check_report.meaning_text(meaning))
     if old.machine.has_data or new.machine.has_data:
         say("equivalence: not compared (machines with data are compared by their verdicts only)")
     else:
@@ -328,7 +328,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
 def _say_equivalence(old: LoadedSpec, new: LoadedSpec, timeout_ms: int) -> None:
     found = compare(old.machine, new.machine, timeout_ms, all_regions=True)
     names = old.machine.input_names + tuple(n for n in new.machine.input_names if n not in old.machine.input_names)
-    say(report.diff_text(old.machine.name, new.machine.name, found, names))
+    say(check_report.diff_text(old.machine.name, new.machine.name, found, names))
 
 
 def _default_specs() -> list[str]:

@@ -13,7 +13,7 @@ from mlca_verify.codegen.render import TEMPLATE_DIR, render, render_data
 from mlca_verify.errors import CodegenError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import GENERATED_GLOB
-from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.datachecks import completeness
 from mlca_verify.logic.induction import Limits
 from mlca_verify.spec import LoadedSpec

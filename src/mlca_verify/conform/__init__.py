@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.codegen import data_ir, drift, generate, machine_ir
-from mlca_verify.conform.checks import SUITE, Subject
-from mlca_verify.conform.data import DATA_SUITE, DataSubject
+from mlca_verify.conform.bool_code import SUITE, Subject
+from mlca_verify.conform.data_code import DATA_SUITE, DataSubject
 from mlca_verify.conform.outcome import CHECKS, CheckOutcome, run_checks
 from mlca_verify.errors import UsageError
 from mlca_verify.layout import Layout

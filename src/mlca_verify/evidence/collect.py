@@ -23,6 +23,7 @@ from typing import Any
 
 import z3
 
+from mlca_verify.check_report import cube_text
 from mlca_verify.codegen import data_ir, machine_ir
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, DATA_SHARED, DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
@@ -37,7 +38,6 @@ from mlca_verify.logic import check_all, compare
 from mlca_verify.logic.lemmas import named
 from mlca_verify.logic.results import Outcome, Result
 from mlca_verify.model import BinOp, Machine, Range, StateIn, Type, show, show_number
-from mlca_verify.report import cube_text
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.types import show_unit
 from mlca_verify.tools import run

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from mlca_verify.logic.checks import Checker
+from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.datachecks import check_data_machine
 from mlca_verify.logic.equiv import compare
 from mlca_verify.logic.induction import Limits

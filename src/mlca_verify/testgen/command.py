@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.codegen import data_ir
-from mlca_verify.conform.data import random_inputs
+from mlca_verify.conform.data_code import random_inputs
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import Layout

@@ -13,8 +13,8 @@ import z3
 
 from mlca_verify.logic.symbolic import System, variable_bounds
 from mlca_verify.model import Expr, Machine, Var, nodes, show
+from mlca_verify.testgen.definition_reads import condition_paths
 from mlca_verify.testgen.objectives import atoms, definition_decisions, guard_decisions
-from mlca_verify.testgen.reads import condition_paths
 
 BUDGET = 5_000_000  # z3's resources per query, so that the answer does not depend on the machine's load
 

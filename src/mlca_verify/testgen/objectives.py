@@ -38,7 +38,14 @@ from mlca_verify.model import (
     children,
     show,
 )
-from mlca_verify.testgen.reads import fires, no_update, paths_to, read_after_context, read_before, read_context
+from mlca_verify.testgen.definition_reads import (
+    fires,
+    no_update,
+    paths_to,
+    read_after_context,
+    read_before,
+    read_context,
+)
 
 Where = Literal["pre", "post"]  # over the frame before the step (guards, definitions) or after it (monitor, outputs)
 

@@ -7,9 +7,9 @@ from typing import Any
 
 from mlca_verify.escape import terminal
 from mlca_verify.logic.equiv import EquivalenceResult, Region
-from mlca_verify.logic.meaning import PropertyChange
+from mlca_verify.logic.property_diff import PropertyChange
 from mlca_verify.logic.results import Counterexample, Outcome, Result, Step
-from mlca_verify.regress import TransitionChange, VerdictChange
+from mlca_verify.spec_diff import TransitionChange, VerdictChange
 
 CHECK_SCHEMA = "mlca-verify.check/2"
 CITE_WIDTH = 60

@@ -28,9 +28,10 @@ from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
 from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
-from mlca_verify.conform.checks import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
+from mlca_verify.conform.bool_code import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
 from mlca_verify.conform.outcome import CheckOutcome, Suite
 from mlca_verify.layout import Layout
+from mlca_verify.loading import import_generated
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.replay64 import Binary64
@@ -38,7 +39,6 @@ from mlca_verify.logic.replay64 import Value as Value64
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.symbolic import System, python_value, value_of
 from mlca_verify.model import Machine, Type, prevs_of
-from mlca_verify.targets import import_generated
 from mlca_verify.tools import C_FLAGS, run
 
 SANITIZE = ("-fsanitize=address,undefined,float-divide-by-zero", "-fno-sanitize-recover=all", "-g", "-O1")

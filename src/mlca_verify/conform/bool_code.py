@@ -21,8 +21,8 @@ from mlca_verify.conform.outcome import CheckOutcome, Suite
 from mlca_verify.conform.reference import Reference
 from mlca_verify.errors import ToolError
 from mlca_verify.layout import Layout
+from mlca_verify.loading import CMachine, PythonMachine, build_c, load_python
 from mlca_verify.spec import LoadedSpec
-from mlca_verify.targets import CMachine, PythonMachine, build_c, load_python
 from mlca_verify.tools import C_FLAGS, run
 
 OUT_OF_RANGE = 3  # values past the last state tried as out-of-range states
