@@ -424,7 +424,7 @@ class DataChecker:
             real = self.systems((), False)[1]
             if not self._prebuilt:
                 self._prebuilt = True
-                runs = [finite.ask(name, deepen=False).run for name in finite.targets if name.startswith(WITNESSES)]
+                runs = [finite.ask(name, deepen=False).run for name in finite.goals if name.startswith(WITNESSES)]
                 prebuild(finite, real, [r for r in runs if r is not None], self._paths)
             found = self.explicitly(finite, prop, real, bad, deepen=False, bounded=False)
         if found is None:

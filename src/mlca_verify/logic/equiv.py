@@ -51,7 +51,7 @@ class Comparator:
         self.solver = Solver(_union(left.input_names, right.input_names), timeout_ms)
         self.enc_l = Encoding(left, self.solver)
         self.enc_r = Encoding(right, self.solver)
-        self.targets = _union(left.states, right.states)
+        self.states = _union(left.states, right.states)
         self.unknown = False
         self.order: list[str] = []
         self.parent: dict[str, tuple[str, str]] = {}
@@ -62,7 +62,7 @@ class Comparator:
         return answer == "sat"
 
     def differs(self, state: str) -> z3.BoolRef:
-        return z3.Or(*[z3.Xor(self.enc_l.can_go(state, t), self.enc_r.can_go(state, t)) for t in self.targets])
+        return z3.Or(*[z3.Xor(self.enc_l.can_go(state, t), self.enc_r.can_go(state, t)) for t in self.states])
 
     def both(self, state: str, target: str) -> z3.BoolRef:
         return z3.And(self.enc_l.can_go(state, target), self.enc_r.can_go(state, target))
@@ -94,7 +94,7 @@ class Comparator:
         queue = deque([start])
         while queue:
             state = queue.popleft()
-            for target in self.targets:
+            for target in self.states:
                 if target not in self.parent and target != start and self.ask(self.both(state, target)):
                     self.parent[target] = (state, target)
                     self.order.append(target)

@@ -5,9 +5,9 @@ registers prev() reads, and whether no step has been taken yet (a bounded respon
 longest run of waiting steps is found over the graph of configurations, `sustained`). From each
 configuration the search takes one step per input class (`classes`): the first enabled transition fires,
 variables take their updates, registers follow, exactly as `symbolic.System.step` says. Every
-step is tested against the search's targets (a state reached, a transition fired, a property that fails): the
-first step to meet a target ends the shortest run that does, and when the search has seen every configuration
-a target never met is proved unreachable.
+step is tested against the search's goals (a state reached, a transition fired, a property that fails): the
+first step to meet a goal ends the shortest run that does, and when the search has seen every configuration
+a goal never met is proved unreachable.
 
 The search is complete for a machine whose reachable configurations are finite and whose signals are read only
 through atoms; its budget of configurations (not of time) decides when it gives up, so a verdict never depends
@@ -28,7 +28,7 @@ from mlca_verify.model import Expr, Machine
 # mode, first, variables..., registers... (`first` stays True where no register reads it: the configurations
 # before and after a step that differ in it alone step alike, so they are one)
 Config = tuple[Value | None, ...]
-# A target's test of one step: the environment before it, after it (None: no transition enabled where the
+# A goal's test of one step: the environment before it, after it (None: no transition enabled where the
 # machine is undefined, so no step), the transition that fired (-1: none) and the configuration reached.
 Test = Callable[[Env, "Env | None", int, "Config | None"], bool]
 Edges = list[list[tuple[int, int]]]  # per configuration expanded: (the configuration reached, the class)
@@ -75,7 +75,7 @@ def compile_step(machine: Machine, compiler: Compiler, frame_assumptions: Sequen
 
 
 @dataclass
-class Target:
+class Goal:
     """What a search looks for, and where it first found it: the configuration a step left and its class."""
 
     name: str
@@ -132,7 +132,7 @@ class Search:
     step: Step
     classes: Sequence[InputClass]
     registers: Sequence[Eval]
-    targets: list[Target]
+    goals: list[Goal]
     labels: Labels | None = None  # the steps taken, labelled, when some response reads them (`restricted_edges`)
     configs: list[Config] = field(default_factory=list)
     index: dict[Config, int] = field(default_factory=dict)
@@ -156,12 +156,12 @@ class Search:
         self.depth.append(0)
 
     @property
-    def open(self) -> list[Target]:
-        return [t for t in self.targets if t.found is None]
+    def open(self) -> list[Goal]:
+        return [t for t in self.goals if t.found is None]
 
     def run(self, budget: int, until_found: bool = False) -> None:
         """Take the steps of configurations until `budget` steps have been taken, the search is complete, or
-        (with `until_found`) every witness target is found."""
+        (with `until_found`) every witness goal is found."""
         try:
             while self.done < len(self.configs):
                 if until_found and not any(t.witness for t in self.open):
@@ -176,7 +176,7 @@ class Search:
 
     def expand(self, at: int) -> None:
         config = self.configs[at]
-        open_targets = self.open
+        open_goals = self.open
         if self.labels is not None:
             self.labels.start.append(len(self.labels.to))
         for c, cls in enumerate(self.classes):
@@ -184,7 +184,7 @@ class Search:
             if taken is None:
                 continue
             before, after, fired, nxt = taken
-            for t in open_targets:
+            for t in open_goals:
                 if t.found is None and t.test(before, after, fired, nxt):
                     t.found = (at, c)
             if nxt is not None and nxt not in self.index:
@@ -233,10 +233,10 @@ class Search:
         """The steps taken so far (one per class of each configuration expanded)."""
         return self.done * len(self.classes)
 
-    def run_to(self, target: Target) -> list[int]:
-        """The classes of the shortest run whose last step meets `target` (found)."""
-        assert target.found is not None
-        at, c = target.found
+    def run_to(self, goal: Goal) -> list[int]:
+        """The classes of the shortest run whose last step meets `goal` (found)."""
+        assert goal.found is not None
+        at, c = goal.found
         return [*self.stem(at), c]
 
     def stem(self, at: int) -> list[int]:

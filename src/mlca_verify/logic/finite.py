@@ -1,9 +1,9 @@
 """The explicit-state engine for the checks of one machine with data whose params are fixed: what `DataChecker`
 asks of it before (and after) the symbolic engines.
 
-One search holds every built-in check and invariant as a target. A target met gives the classes of the shortest
+One search holds every built-in check and invariant as a goal. A goal met gives the classes of the shortest
 run that meets it, which the caller replays on the symbolic system (as a check that both engines agree on it)
-and the `Tracer` turns into a counterexample; a search that saw every configuration proves each target it never
+and the `Tracer` turns into a counterexample; a search that saw every configuration proves each goal it never
 met. Responses are decided over the graph of all configurations once the search is complete: a bounded one by the
 longest stretch of waiting steps, one without a bound by a loop of them.
 """
@@ -31,9 +31,9 @@ from mlca_verify.logic.concrete import (
 from mlca_verify.logic.explicit import (
     Config,
     Counter,
+    Goal,
     Labels,
     Search,
-    Target,
     Test,
     compile_step,
     count_after,
@@ -52,7 +52,7 @@ STEPS = 3_000_000  # steps a search may take in all
 
 @dataclass(frozen=True)
 class Answer:
-    """What the explicit engine says of one target: `run` (the classes of the shortest run meeting it), or
+    """What the explicit engine says of one goal: `run` (the classes of the shortest run meeting it), or
     `never` (no run meets it: every configuration was seen), or neither (not decided, `why`)."""
 
     run: list[int] | None = None
@@ -74,7 +74,7 @@ class Finite:
         self.base: Search | None = None
         self.counters: dict[str, Counter] = {}
         self.unbounded: dict[str, Callable[[Env], bool]] = {}
-        self.targets: dict[str, Target] = {}
+        self.goals: dict[str, Goal] = {}
         try:
             self._build()
         except (NotFinite, TooManyClasses) as exc:
@@ -88,11 +88,11 @@ class Finite:
         frame = [a.expr for a in m.assumptions if c.reads_frame(a.expr)]
         inputs_only = [a.expr for a in m.assumptions if not c.reads_frame(a.expr)]
         step = compile_step(m, c, frame)
-        targets = self._builtins()
+        goals = self._builtins()
         for inv in m.invariants:
             test = None if inv.parametric else self._compiled(partial(_invariant, c, inv.expr))
             if test is not None:
-                targets[inv.id] = Target(inv.id, test)
+                goals[inv.id] = Goal(inv.id, test)
         for live in m.liveness:
             if not live.parametric:
                 self._compiled(partial(self._liveness, live))
@@ -100,11 +100,11 @@ class Finite:
         if len(registers) != len(c.prevs):
             raise NotFinite("prev() inside prev()")
         self.classes = input_classes(System(m), list(c.atoms), inputs_only, self.timeout_ms)
-        self.targets = targets
+        self.goals = goals
         self.labelled = [*self.counters, *self.unbounded]  # the responses, each read through a label of the search
         tests = [self._waiting(live_id) for live_id in self.labelled]
         labels = Labels(tests) if tests else None
-        self.base = Search(step, self.classes, registers, list(targets.values()), labels)
+        self.base = Search(step, self.classes, registers, list(goals.values()), labels)
 
     def _waiting(self, live_id: str) -> Callable[[Env], bool]:
         """The steps a response waits on: its assumption holds and its goal does not."""
@@ -113,23 +113,23 @@ class Finite:
         counter = self.counters[live_id]
         return lambda e: bool(counter.assume(e)) and not counter.goal(e)
 
-    def _builtins(self) -> dict[str, Target]:
+    def _builtins(self) -> dict[str, Goal]:
         m, c = self.m, self.compiler
-        found: dict[str, Target] = {}
+        found: dict[str, Goal] = {}
         for s in m.states:
-            found[f"reach:{s}"] = Target(f"reach:{s}", _reaches(c.states[s]), witness=True)
+            found[f"reach:{s}"] = Goal(f"reach:{s}", _reaches(c.states[s]), witness=True)
         for k, t in enumerate(m.transitions):
-            found[f"fires:{t.id}"] = Target(f"fires:{t.id}", _fires(k), witness=True)
+            found[f"fires:{t.id}"] = Goal(f"fires:{t.id}", _fires(k), witness=True)
         for k, v in enumerate(m.variables):
             if v.range is not None:
                 low, high = (int(x) if v.type == "int" and x.denominator == 1 else x for x in v.range)
-                found[f"range:{v.name}"] = Target(f"range:{v.name}", _leaves(k, low, high))
+                found[f"range:{v.name}"] = Goal(f"range:{v.name}", _leaves(k, low, high))
         for o in m.outputs:
             test = None if o.range is None else self._compiled(partial(_invariant, c, _within(o.name, o.type, o.range)))
             if test is not None:
-                found[f"range:{o.name}"] = Target(f"range:{o.name}", test)
+                found[f"range:{o.name}"] = Goal(f"range:{o.name}", test)
         if m.otherwise == "undefined":
-            found["completeness"] = Target("completeness", _stuck)
+            found["completeness"] = Goal("completeness", _stuck)
         return found
 
     def _compiled(self, make: Callable[[], Test | None]) -> Test | None:
@@ -157,19 +157,19 @@ class Finite:
         return self.base is not None
 
     def witnesses(self) -> None:
-        """The first search: until every reachability target is met (or the witness budget is spent)."""
+        """The first search: until every reachability goal is met (or the witness budget is spent)."""
         if self.base is not None and not self.base.complete:
             self.base.run(min(WITNESS_STEPS, self.budget), until_found=True)
 
     def ask(self, name: str, deepen: bool) -> Answer:
-        """The answer for a target of the main search (a built-in check or an invariant); with `deepen`, the
+        """The answer for a goal of the main search (a built-in check or an invariant); with `deepen`, the
         search goes on to its whole budget first."""
-        if self.base is None or name not in self.targets:
+        if self.base is None or name not in self.goals:
             return self.undecided()
-        search, target = self.base, self.targets[name]
-        if deepen and target.found is None and not search.complete:
+        search, goal = self.base, self.goals[name]
+        if deepen and goal.found is None and not search.complete:
             search.run(self.budget)
-        return _answer(search, target)
+        return _answer(search, goal)
 
     def respond(self, live_id: str, deepen: bool) -> Answer:
         """A bounded response: the shortest run that ends with `bound` steps in a row at which the assumption
@@ -208,8 +208,8 @@ class Finite:
         return Answer(why=self.incomplete(self.base))
 
     def undecided(self) -> Answer:
-        """The answer for a target the engine does not hold (the machine, or the property, is not finite)."""
-        return Answer(why=self.reason or "not a target of the explicit engine")
+        """The answer for a goal the engine does not hold (the machine, or the property, is not finite)."""
+        return Answer(why=self.reason or "not a goal of the explicit engine")
 
     def incomplete(self, search: Search) -> str:
         return (
@@ -240,9 +240,9 @@ def replay(
     loop_start: int | None = None,
     paths: Paths | None = None,
 ) -> Path | None:
-    """The explicit run `run` (for the target `name`) as a path of the symbolic system `real`: every frame and
+    """The explicit run `run` (for the goal `name`) as a path of the symbolic system `real`: every frame and
     input fixed to the explicit engine's values, and z3's own evaluation of each symbolic step (and of `final`:
-    the target's bad step, or its loop) confirming that the symbolic semantics takes the same run. None when it
+    the goal's bad step, or its loop) confirming that the symbolic semantics takes the same run. None when it
     does not (the callers then ask the symbolic engines). `paths` keeps the paths built, for runs asked again
     (a state reached and the transition that enters it often share theirs)."""
     paths = {} if paths is None else paths
@@ -339,9 +339,9 @@ def _numeral(value: Value | None, kind: str) -> z3.ExprRef:
     return value_of(Fraction(value), kind)  # type: ignore[arg-type]
 
 
-def _answer(search: Search, target: Target) -> Answer:
-    if target.found is not None:
-        return Answer(run=search.run_to(target))
+def _answer(search: Search, goal: Goal) -> Answer:
+    if goal.found is not None:
+        return Answer(run=search.run_to(goal))
     if search.undecidable:
         return Answer(why=f"the explicit-state search stopped: {search.undecidable}")
     if search.complete:
