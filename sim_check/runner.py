@@ -26,67 +26,29 @@ its transitions fired, and (the shadow mode) what the controller did with each w
 
 from __future__ import annotations
 
-import hashlib
-import math
 import re
 import time
 from collections import deque
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mlca_verify.loading import DEFS_SHIFT, FIRED_MASK, FIRED_SHIFT, HOLDS, STATE_BITS
-from sim_check import mobil, rss, ssm
+from sim_check import mobil, ssm
+from sim_check.accounting import EMERGENCY_DECEL, Driving, Ledger
 from sim_check.controllers import Controller, DataController, Setup, load_controller, setup_of
 from sim_check.need import URGENT_M, Need, middle_goal, sumo_wish
 from sim_check.reads import Leader, Reads
-from sim_check.run_results import SIDES, AvMetrics, Episode, RunResult, Violation
+from sim_check.run_results import SIDES, AvMetrics, RunResult
 from sim_check.scenario import Scenario, build, sumo_command
 from sim_check.sensing import LaneClaim, Network, claimed, sense
 from sim_check.signals import UNSENSED, signals
 
-EMERGENCY_DECEL = 4.5  # m/s²: braking harder than this is counted as emergency braking
 DWELL_S = 3.0  # a command is not repeated within this time (SUMO's change is instantaneous)
 TRACE_STEPS = 20  # steps of history stored with a monitor violation
 SIM_LIMIT_S = 3600.0
 SAMPLE_STEPS = 10  # the background traffic's speed is sampled every this many steps
 UNSAFE_TEXT = re.compile(r"[^A-Za-z0-9_.-]")
 MERGE_EDGE = "acc"  # lane changes are measured from the start of this edge (where a route has it)
-
-
-@dataclass
-class NeedEpisode:
-    """The N episode an AV is in: whether the AV has changed lane in it, or passed up a safe gap."""
-
-    moved: bool = False
-    deferred: bool = False
-
-
-History = deque[tuple[float, int, dict[str, Any], int]]
-
-
-@dataclass(slots=True, eq=False)
-class Driving:
-    """What the loop keeps of one AV from its departure to its arrival."""
-
-    id: str
-    m: AvMetrics
-    state: int  # the generated machine's state (fsm controllers)
-    state_s: list[float]  # seconds spent in each state of the machine, by state
-    history: History  # (time, state, inputs, next state) of the last steps, the trace stored with a violation
-    fired: list[int]  # how often each transition fired, by number (0: none fired)
-    ctx: Any = None  # a machine with data: its context
-    edge: str = ""  # where the AV was the step before
-    lane: int = -1
-    lane_id: str = ""
-    braking: bool = False  # whether it braked harder than EMERGENCY_DECEL the step before
-    close: set[str] = field(default_factory=set)  # vehicles within its minGap the step before
-    need: NeedEpisode | None = None  # the N episode it is in
-    episode: Episode | None = None  # the wish episode it is in (shadow mode)
-    last_change: float = -math.inf  # when it was last commanded to change lane
-    moving: int = 0  # the side of the move under way (a generated machine in MOVING_*), 0 none
-    last_fired: int = 0  # the transition that fired in the machine's last step, by number from 1 (0: none)
-    merge_m: float = 0.0  # its odometer at the merge
 
 
 class ClosedLoop:
@@ -120,21 +82,16 @@ class ClosedLoop:
         self.scenario = scenario
         self.target = scenario.target_lane
         self.sumo_need = scenario.traffic.need == "sumo"
-        self.metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
+        metrics = {av: AvMetrics(av, sensed=setup.kind in ("fsm", "without")) for av in av_ids}
+        self.ledger = Ledger(
+            self.read, self.network, metrics, states=states, transitions=self.transitions, dt=scenario.traffic.step_s
+        )
+        self.metrics = metrics
+        self.trail = self.ledger.trail
         self.avs: dict[str, Driving] = {}  # every AV that has departed
         self.driving: list[Driving] = []  # those not yet arrived, in the order of their ids
-        self.violations: list[Violation] = []
-        self.pairs: set[tuple[str, str]] = set()
-        # (AV, edge, lane, position) of every AV every step: hashed once at the end (trajectory_sha256), in one
-        # tight pass rather than a formatting and a hash call between two SUMO steps
-        self.trail: list[tuple[str, str, int, float]] = []
         self.dt = scenario.traffic.step_s
         self.steps = 0
-        self.bg_speed = [0.0, 0]  # sum of sampled speeds, number of samples
-        self.density = [0.0, 0]  # sum of sampled densities (vehicles per km per lane), number of samples
-        self.edges: list[str] = []
-        self.rss = rss.spec_params()
-        self.lane_km = 0.0  # the kilometres of lane of the normal edges
         self.remaining = len(av_ids)  # the AVs that have not arrived
 
     def step(self, t: float) -> None:
@@ -147,7 +104,7 @@ class ClosedLoop:
             self.arrive(arrived, t)
         collisions = read.collisions()
         if collisions:
-            self.collide(collisions)
+            self.ledger.collide(collisions)
         speeds = 0.0
         if self.driving:
             claims: list[LaneClaim] = []
@@ -155,7 +112,7 @@ class ClosedLoop:
                 speeds += self.drive(av, t, claims)
         self.steps += 1
         if self.steps % SAMPLE_STEPS == 0:
-            self.sample(speeds, len(self.driving))
+            self.ledger.sample(self.sumo.edge.getIDList(), speeds, len(self.driving))
 
     def enter(self, vid: str, t: float) -> Driving:
         """Start keeping AV `vid`, departed at `t`."""
@@ -189,41 +146,7 @@ class ClosedLoop:
                 av.m.arrive_s = t
                 self.remaining -= 1
                 self.driving.remove(av)
-                if av.need is not None:
-                    av.m.needs_open += 1
-                    av.need = None
-                self.end_episode(av)
-
-    def sample(self, av_speeds: float, avs: int) -> None:
-        """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs), and the density
-        of all traffic (vehicles per km of lane on the normal edges)."""
-        if not self.edges:
-            self.edges = [e for e in self.sumo.edge.getIDList() if not e.startswith(":")]
-            self.lane_km = sum(self.network.lane_length(e) * self.network.lanes[e] for e in self.edges) / 1000.0
-        total, count, vehicles = -av_speeds, -avs, 0
-        for e in self.edges:
-            n = self.read.edge_vehicles(e)
-            if n:
-                total += self.read.edge_speed(e) * n
-                count += n
-                vehicles += n
-        if count > 0:
-            self.bg_speed[0] += total
-            self.bg_speed[1] += count
-        if self.lane_km > 0:
-            self.density[0] += vehicles / self.lane_km
-            self.density[1] += 1
-
-    def collide(self, collisions: Any) -> None:
-        """Count the colliding pairs SUMO reports this step (a pair is counted once, however long it touches)."""
-        for c in collisions:
-            pair = tuple(sorted((c.collider, c.victim)))
-            if pair in self.pairs:
-                continue
-            self.pairs.add(pair)
-            for vid in pair:
-                if vid in self.metrics:
-                    self.metrics[vid].collisions += 1
+                self.ledger.arrived(av)
 
     def drive(self, av: Driving, t: float, claims: list[LaneClaim]) -> float:
         """One step of one AV: observe it (its metrics), and let its controller decide. Returns its speed."""
@@ -250,7 +173,7 @@ class ClosedLoop:
         follower = read.follower(vid, 50.0)
         behind = follower[0] if follower[1] < 0.0 else ""
         if ahead or behind or av.close:
-            self.contacts(av, ahead, behind)
+            self.ledger.contacts(av, ahead, behind)
         self.trail.append((vid, edge, lane, pos))
         # lane decisions are made off the ramp (one lane) and outside junctions: tested inline, on the hot path
         if self.decide is not None and edge != "ramp" and edge[:1] != ":":
@@ -264,51 +187,8 @@ class ClosedLoop:
             av.merge_m = av.m.distance_m
         side = self.network.change(av.lane_id, lane_id) if av.lane_id else 0
         if side:
-            self.changed(av, t, side)
+            self.ledger.changed(av, t, side)
         av.edge, av.lane, av.lane_id = edge, lane, lane_id
-
-    def changed(self, av: Driving, t: float, side: int) -> None:
-        """The AV changed lane towards `side` this step: count it, and credit the episodes it ends."""
-        m = av.m
-        m.lane_changes.append(m.distance_m - av.merge_m)
-        self.check_change(av)
-        need = av.need
-        if need is not None and not need.moved:
-            need.moved = True
-            m.needs_moved += 1
-        episode = av.episode
-        if episode is not None and episode.side == side and episode.outcome == "refused":
-            delay = max(0.0, t - episode.start_s - self.dt)
-            episode.delay_s = round(delay, 3)
-            episode.outcome = "at_once" if delay < self.dt / 2 else "deferred"
-
-    def check_change(self, av: Driving) -> None:
-        """The gaps to the new leader and from the new follower at the step the change is executed (physical: SUMO's
-        gaps plus the rear vehicle's minGap), their minimum over the AV's changes, and RSS's check of both."""
-        read, m, vid = self.read, av.m, av.id
-        v = read.speed(vid)
-        found = read.leader(vid, 1000.0)
-        leader = (found[1] + read.min_gap(vid), read.speed(found[0])) if found and found[0] else None
-        behind = read.follower(vid, 1000.0)
-        follower = (behind[1] + read.min_gap(behind[0]), read.speed(behind[0])) if behind[0] else None
-        if leader is not None and (m.lc_min_gap_lead_m is None or leader[0] < m.lc_min_gap_lead_m):
-            m.lc_min_gap_lead_m = leader[0]
-        if follower is not None and (m.lc_min_gap_follow_m is None or follower[0] < m.lc_min_gap_follow_m):
-            m.lc_min_gap_follow_m = follower[0]
-        if not rss.change_is_safe(v, leader, follower, self.rss):
-            m.lc_rss_unsafe += 1
-
-    def contacts(self, av: Driving, ahead: str, behind: str) -> None:
-        """Count the min-gap contacts that begin this step: the vehicles within the AV's minGap ahead or behind
-        (each "" where none) that were not the step before."""
-        now = {vid for vid in (ahead, behind) if vid}
-        av.m.mingap_contacts += len(now - av.close)
-        av.close = now
-
-    def trajectory_sha256(self) -> str:
-        """The hash of every AV's edge, lane and position (to the millimetre), step by step."""
-        lines = "".join(f"{av}|{edge}|{lane}|{pos:.3f}\n" for av, edge, lane, pos in self.trail)
-        return hashlib.sha256(lines.encode()).hexdigest()
 
     def need_of(self, av: Driving, where: tuple[str, int, float], leader: Leader) -> Need:
         """The AV's need this step, from the scenario's source (sim_check.need)."""
@@ -334,15 +214,15 @@ class ClosedLoop:
         """A boolean machine decides on N, W, L and R (sim_check.sensing), its lane then claimed for the other AVs;
         or, "without algorithm", the AV moves wherever the need points."""
         need = self.need_of(av, where, leader)
-        self.wish(av, t, need)
+        self.ledger.wish(av, t, need)
         if self.ctrl is None:
             self.move(av, t, where, need.side, None)
-            self.track(av, need, False, need.side)
+            self.ledger.track(av, need, False, need.side)
             return
         inputs = sense(self.read, self.network, av.id, where, need, claims=claims, speed=speed)
         side = self.machine(av, t, inputs)
         self.move(av, t, where, side, claims)
-        self.track(av, need, inputs["L"] or inputs["R"], side)
+        self.ledger.track(av, need, inputs["L"] or inputs["R"], side)
 
     def decide_data(
         self,
@@ -358,14 +238,14 @@ class ClosedLoop:
         AV claimed near the same position this step (V2V) is reported unsensed."""
         edge, lane, pos = where
         need = self.need_of(av, where, leader)
-        self.wish(av, t, need)
+        self.ledger.wish(av, t, need)
         lanes = self.network.lanes[edge]
         sensed = signals(self.read, av.id, lane, lanes=lanes, speed=speed, side=need.side)
         if need.side and claimed(claims, av.id, edge, lane + need.side, pos):
             sensed = (speed, *UNSENSED, *UNSENSED)
         side, safe = self.data_machine(av, t, need, sensed)
         self.move(av, t, where, side, claims)
-        self.track(av, need, safe, side)
+        self.ledger.track(av, need, safe, side)
 
     def data_machine(self, av: Driving, t: float, need: Need, sensed: tuple[float, ...]) -> tuple[int, bool]:
         """One step of the machine with data and its runtime monitor: the side its command moves to (+1, -1 or 0),
@@ -374,13 +254,11 @@ class ClosedLoop:
         assert data is not None
         old = av.state
         packed, *outputs = data.advance(av.ctx, need.side != 0, need.urgent, *sensed)
-        new = av.state = packed & STATE_BITS
-        fired = av.last_fired = max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1)
-        av.fired[fired] += 1
-        av.state_s[new] += self.dt
-        av.history.append((t, old, {"N": need.side != 0, "U": need.urgent, "signals": sensed}, new))
+        av.state = packed & STATE_BITS
+        fired = max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1)
+        self.ledger.stepped(av, t, old, {"N": need.side != 0, "U": need.urgent, "signals": sensed}, fired)
         if not packed & HOLDS:
-            self.violation(av, t, data.failing())
+            self.ledger.violation(av, t, data.failing())
         return outputs[data.command_at], bool(packed & self.safe_bits)
 
     def decide_mobil(
@@ -411,23 +289,10 @@ class ClosedLoop:
         values = ctrl.values(inputs)
         answer = ctrl.packed(old, *values)
         new = av.state = answer & STATE_BITS
-        fired = av.last_fired = ctrl.fired.get((old, values), 0)
-        av.fired[fired] += 1
-        av.state_s[new] += self.dt
-        av.history.append((t, old, inputs, new))
+        self.ledger.stepped(av, t, old, inputs, ctrl.fired.get((old, values), 0))
         if not answer & HOLDS:
-            self.violation(av, t, ctrl.failing(new, inputs))
+            self.ledger.violation(av, t, ctrl.failing(new, inputs))
         return self.sides[new]
-
-    def violation(self, av: Driving, t: float, failing: list[str]) -> None:
-        """Store a runtime-monitor violation with the steps that led to it."""
-        names = self.states
-        trace = [
-            {"t": round(when, 3), "state": names[old], "inputs": _plain(inputs), "next": names[new]}
-            for when, old, inputs, new in av.history
-        ]
-        av.m.monitor_violations += 1
-        self.violations.append(Violation(av.id, round(t, 3), failing, trace))
 
     def move(
         self, av: Driving, t: float, where: tuple[str, int, float], side: int, claims: list[LaneClaim] | None
@@ -470,61 +335,6 @@ class ClosedLoop:
         if av.episode is not None:
             parts.append(av.episode.reason)
         return "|" + ":".join(UNSAFE_TEXT.sub("", part) for part in parts)
-
-    def wish(self, av: Driving, t: float, need: Need) -> None:
-        """The shadow mode's wish episodes, before the controller steps: the episode the AV was in ends where the
-        need points elsewhere or for another reason (its state is the machine's at its last step); a new one
-        begins; an episode that turns urgent is urgent."""
-        episode = av.episode
-        if episode is not None and (need.side, need.reason) != (episode.side, episode.reason):
-            self.end_episode(av)
-            episode = None
-        if need.side and episode is None:
-            av.episode = Episode(round(t, 3), need.side, need.reason, need.urgent)
-        elif episode is not None and need.urgent:
-            episode.urgent = True
-
-    def track(self, av: Driving, need: Need, safe: bool, side: int) -> None:
-        """The mechanism: N episodes, and safe gaps towards the wanted side that the controller did not take."""
-        if not need.side:
-            av.need = None
-            return
-        m, current = av.m, av.need
-        if current is None:
-            current = av.need = NeedEpisode()
-            m.needs += 1
-        m.need_s += self.dt
-        if safe and not side:
-            m.deferred_s += self.dt
-            if not current.deferred:
-                current.deferred = True
-                m.needs_deferred += 1
-
-    def end_episode(self, av: Driving) -> None:
-        episode = av.episode
-        if episode is not None:
-            episode.state = self.states[av.state] if self.states else ""
-            av.m.episodes.append(episode)
-            av.episode = None
-
-    def finish(self) -> list[AvMetrics]:
-        """Every AV's metrics at the end of the run, in the order the loop was given the AVs. The time in each
-        state of the machine and the transitions fired, kept by number during the run, are put in by name (the
-        states an AV was never in are left out; every transition is listed)."""
-        for av in self.avs.values():
-            self.end_episode(av)
-            if self.states:
-                av.m.state_s = {self.states[k]: s for k, s in enumerate(av.state_s) if s}
-                av.m.transitions = {tid: av.fired[k + 1] for k, tid in enumerate(self.transitions)}
-        return list(self.metrics.values())
-
-
-def _plain(inputs: dict[str, Any]) -> dict[str, Any]:
-    """A step's inputs as JSON stores them: a signal that is not a finite number as null."""
-    signals_ = inputs.get("signals")
-    if signals_ is None:
-        return inputs
-    return {**inputs, "signals": [v if math.isfinite(v) else None for v in signals_]}
 
 
 def sumo_args(scenario: Scenario, net: Path, routes: Path, seed: int, options: tuple[str, ...] = ()) -> list[str]:
@@ -571,10 +381,11 @@ def run_once(
     finally:
         libsumo.close()
     result.sim_steps, result.vehicle_steps = steps, vehicle_steps
-    result.collisions = len(loop.pairs)
-    result.bg_mean_speed_ms = loop.bg_speed[0] / loop.bg_speed[1] if loop.bg_speed[1] else None
-    result.density_veh_km_lane = round(loop.density[0] / loop.density[1], 3) if loop.density[1] else None
-    result.metrics = loop.finish()
+    ledger = loop.ledger
+    result.collisions = len(ledger.pairs)
+    result.bg_mean_speed_ms = ledger.bg_mean_speed_ms()
+    result.density_veh_km_lane = ledger.mean_density()
+    result.metrics = ledger.finish(list(loop.avs.values()))
     for m, found in zip(result.metrics, ssm.read(conflicts, built.av_ids).values(), strict=True):
         m.ssm_conflicts, m.ssm_min_ttc_s, m.ssm_max_drac, m.ssm_min_pet_s = (
             found.count,
@@ -582,8 +393,8 @@ def run_once(
             found.max_drac,
             found.min_pet_s,
         )
-    result.violations = loop.violations
-    result.trajectory_sha256 = loop.trajectory_sha256()
+    result.violations = ledger.violations
+    result.trajectory_sha256 = ledger.trajectory_sha256()
     result.wall_s = time.perf_counter() - start
     return result
 

@@ -107,9 +107,9 @@ def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
             {"t": round(k / 10, 3), "state": ctrl.states[state], "inputs": given, "next": ctrl.states[after]}
         )
         state = after
-    assert av.state == state and loop.violations == []  # the shipped machine keeps its invariants
-    loop.violation(av, 2.4, ["I9"])
-    (stored,) = loop.violations
+    assert av.state == state and loop.ledger.violations == []  # the shipped machine keeps its invariants
+    loop.ledger.violation(av, 2.4, ["I9"])
+    (stored,) = loop.ledger.violations
     assert stored == Violation("av0", 2.4, ["I9"], expected[-TRACE_STEPS:])
     assert loop.metrics["av0"].monitor_violations == 1
 
