@@ -27,7 +27,7 @@ from typing import Any
 
 from mlca_verify.errors import UsageError
 from sim_check.leases import Plan, drop_lease, lease, probe, release
-from sim_check.run_results import MARKS_KM, SAFETY, SHADOW, STATES, Job, RunResult
+from sim_check.run_results import MARKS_KM, SAFETY, SHADOW, STATES, Job, RunResult, Status
 from sim_check.schema import (
     AV_METRICS,
     COLUMNS_2,
@@ -137,7 +137,7 @@ class RunStatus:
 
     controller: str
     avs: int
-    status: str
+    status: Status
     monitor_violations: int | None
 
 

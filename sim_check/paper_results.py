@@ -8,6 +8,7 @@ and its three-AV values are about three times its one-AV values.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from sim_check.run_results import MARKS_KM
 
@@ -78,8 +79,8 @@ class Claim:
     key: str
     cite: str
     text: str
-    metric: str  # "lc" (lane changes at 20 km) or "collisions"
-    kind: str  # "reduction" (MLCA vs a baseline, by `claimed`) or "lowest" / "highest" (subject among all)
+    metric: Literal["lc", "collisions"]  # lane changes at 20 km, or collisions
+    kind: Literal["reduction", "lowest", "highest"]  # MLCA vs a baseline (by `claimed`), or the subject among all
     subject: str = "mlca-c"
     baseline: str = ""
     claimed: float = 0.0

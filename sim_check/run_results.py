@@ -15,7 +15,8 @@ SIDES = {"MOVING_LEFT": +1, "MOVING_RIGHT": -1}  # the states that move the AV, 
 
 MECHANISM = ("needs", "needs_moved", "needs_open", "needs_deferred", "need_s", "deferred_s")
 # the shadow mode: what a sensed controller did with each wish episode of its need (sim_check.need)
-OUTCOMES = ("at_once", "deferred", "refused")
+WishOutcome = Literal["at_once", "deferred", "refused"]
+OUTCOMES: tuple[WishOutcome, ...] = ("at_once", "deferred", "refused")
 SHADOW = ("wishes", *(f"wishes_{o}" for o in OUTCOMES), "wish_delay_s", "commands", "repeats")
 # safety beside collisions: each executed lane change's gaps and RSS check, and SUMO's SSM device
 SAFETY = (
@@ -41,7 +42,7 @@ class Episode:
     side: int
     reason: str
     urgent: bool
-    outcome: str = "refused"
+    outcome: WishOutcome = "refused"
     delay_s: float = 0.0
     state: str = ""
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from scipy.stats import mannwhitneyu
@@ -65,9 +66,12 @@ def mann_whitney_less(subject: Sequence[float], baseline: Sequence[float]) -> Te
     return Test(u, float(result.pvalue), 2.0 * u / (len(a) * len(b)) - 1.0)
 
 
+ClaimStanding = Literal["reproduced", "not reproduced", "not comparable"]
+
+
 @dataclass(frozen=True)
 class ClaimVerdict:
-    verdict: str  # reproduced, not reproduced, not comparable
+    verdict: ClaimStanding
     measured: str
     test: str
 

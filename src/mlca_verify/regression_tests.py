@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
+from typing import Literal
 
 from mlca_verify.codegen.data_ir import DataIR, build_data_ir
 from mlca_verify.codegen.lower import Lowering, names_of, real_literal
@@ -31,7 +32,7 @@ class Replay:
     """What to replay: the inputs of every step, where checking starts, and what must hold."""
 
     prop: str
-    kind: str
+    kind: Literal["invariant", "liveness"]
     inputs: list[dict[str, bool]]
     check_from: int  # steps before this index are the stem
     expr: Expr  # invariant: must hold after every step; liveness: the goal must hold at some checked step

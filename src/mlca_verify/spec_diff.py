@@ -10,14 +10,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from mlca_verify.logic.results import Result
+from mlca_verify.logic.results import Kind, Result
 from mlca_verify.model import Machine, Transition, Verdict, show
 
 
 @dataclass(frozen=True)
 class VerdictChange:
     prop: str
-    kind: str
+    kind: Kind
     old: Verdict | None  # None: the property does not exist on that side
     new: Verdict | None
 

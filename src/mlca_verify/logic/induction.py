@@ -13,6 +13,7 @@ from typing import Literal
 
 import z3
 
+from mlca_verify.logic.results import Engine
 from mlca_verify.logic.solver import budget
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System
 from mlca_verify.model import Var
@@ -46,7 +47,7 @@ class Path:
 class Search:
     answer: Answer
     path: Path | None = None
-    engine: str = ""
+    engine: Engine = ""
     k: int | None = None
     certificate: str | None = None
     certificate_checked: bool = False

@@ -22,7 +22,7 @@ Relation = Literal["equivalent", "strengthened", "weakened", "incomparable", "un
 @dataclass(frozen=True)
 class PropertyChange:
     prop: str
-    kind: str
+    kind: Literal["invariant", "liveness", "assumption"]
     old: str
     new: str
     relation: Relation

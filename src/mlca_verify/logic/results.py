@@ -7,6 +7,9 @@ from typing import Any, Literal
 
 from mlca_verify.model import Verdict
 
+# the engine that decided a property ("" where none did): the explicit-state search, BMC, k-induction, PDR, both
+# (k-induction then PDR), the abstraction's refinement, the lasso search of a response without a bound
+Engine = Literal["", "explicit", "bmc", "k-induction", "pdr", "k-induction+pdr", "abstraction", "lasso"]
 Kind = Literal[
     "determinism",
     "completeness",
@@ -88,7 +91,7 @@ class Proof:
     """How a machine with data was decided: the engine, the k of k-induction, the certificate of PDR (an
     inductive invariant in SMT-LIB, over the frame's constants) and whether a separate query confirmed it."""
 
-    engine: str
+    engine: Engine
     parametric: bool
     k: int | None = None
     certificate: str | None = None

@@ -29,6 +29,7 @@ import re
 import sys
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Literal
 
 from mlca_verify.model import Arith, BinOp, Call, Cmp, Const, Expr, Ite, Neg, Not, Num, Prev, StateIn, Var, children
 
@@ -42,9 +43,12 @@ class ParseError(Exception):
         self.message = message
 
 
+TokenKind = Literal["NAME", "NUM", "OP", "END"]
+
+
 @dataclass(frozen=True)
 class Token:
-    kind: str  # NAME, NUM, OP, END
+    kind: TokenKind
     text: str
     offset: int
 
@@ -83,7 +87,7 @@ def tokenize(text: str) -> list[Token]:
         m = _TOKEN.match(text, pos)
         if m is None:
             raise ParseError(pos, f"unexpected character {text[pos]!r}")
-        kind = "NAME" if m.group("name") else "NUM" if m.group("num") else "OP"
+        kind: TokenKind = "NAME" if m.group("name") else "NUM" if m.group("num") else "OP"
         tokens.append(Token(kind, m.group(), pos))
         pos = _skip_space(text, m.end())
     tokens.append(Token("END", "", len(text)))
@@ -137,8 +141,9 @@ class _Parser:
         if self.tok.kind == "END":
             raise ParseError(0, "empty expression")
         expr = self.iff()
-        if self.tok.kind != "END":
-            raise ParseError(self.tok.offset, f"unexpected {self.describe()} after a complete expression")
+        rest = self.tok  # the token after the expression (read again: iff() moved on)
+        if rest.kind != "END":
+            raise ParseError(rest.offset, f"unexpected {self.describe()} after a complete expression")
         return expr
 
     def iff(self) -> Expr:

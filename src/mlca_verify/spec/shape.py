@@ -5,17 +5,29 @@ from __future__ import annotations
 import difflib
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 from mlca_verify.errors import SpecError
 from mlca_verify.spec.locate import KeyPath, Locator
 from mlca_verify.spec.names import MAX_ELEMENTS
 
+FieldKind = Literal[
+    "str",
+    "str-or-list",
+    "list-of-str",
+    "int",
+    "table-of-str",
+    "bool",
+    "number",
+    "range",
+    "int-or-str",
+    "bool-or-number",
+]
+
 
 @dataclass(frozen=True)
 class Field:
-    kind: str  # "str", "str-or-list", "list-of-str", "int", "table-of-str", "bool", "number", "range", "int-or-str",
-    # "bool-or-number"
+    kind: FieldKind
     required: bool = False
 
 

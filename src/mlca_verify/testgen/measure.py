@@ -10,7 +10,7 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from mlca_verify.errors import ToolError
 from mlca_verify.testgen.cobertura import cobertura_from_lcov
@@ -47,7 +47,7 @@ class Gap:
 
 @dataclass
 class Coverage:
-    language: str
+    language: Literal["c", "python"]
     file: str
     statements: Figure
     branches: Figure
