@@ -12,9 +12,8 @@ import pytest
 from bench.bench_corpus import weakened
 
 from mlca_verify.cli import main
-from mlca_verify.conform.bool_code import CheckOutcome
-from mlca_verify.conform.data_code import DATA_CHECKS
-from mlca_verify.evidence.collect import Evidence, data_argument
+from mlca_verify.conform.outcome import CHECKS, CheckOutcome
+from mlca_verify.evidence.collect import Evidence, argument
 from mlca_verify.logic import check_all
 from mlca_verify.spec import load_spec
 from tests.bruteforce_data import DataExplorer
@@ -188,16 +187,16 @@ def test_the_evidence_of_a_corpus_machine_claims_what_its_proofs_give(tmp_path: 
     param value in range and failed for want of parametric proofs the spec never asked for. Declared
     parametric, a property whose proof is not parametric fails the goal."""
     spec = load_spec(ROOT / "tests" / "machines" / "pump_debounce_1khz.toml")
-    passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *DATA_CHECKS)]  # the argument is the subject
+    passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *CHECKS)]  # the argument is the subject
     ev = Evidence(spec, check_all(spec.machine), passed, tmp_path, [], "now", loop={"status": "undeveloped"})
-    nodes = {n["id"]: n for n in data_argument(ev)}
+    nodes = {n["id"]: n for n in argument(ev)}
     assert ev.ok and nodes["G1"]["ok"] is True and "at the params' defaults" in nodes["G1"]["text"]
     assert nodes["G3"]["type"] == "context" and "parametric = true" in nodes["G3"]["text"]
     assert [n["id"] for n in nodes.values() if n["ok"] is False] == []
     claimed = spec.machine.invariants[0]
     asked = replace(spec, machine=replace(spec.machine, invariants=(replace(claimed, parametric=True),)))
     ev = Evidence(asked, check_all(asked.machine), passed, tmp_path, [], "now", loop={"status": "undeveloped"})
-    nodes = {n["id"]: n for n in data_argument(ev)}
+    nodes = {n["id"]: n for n in argument(ev)}
     proof = next(r.proof for r in ev.results if r.prop == claimed.id)
     assert proof is not None and proof.parametric  # k-induction over DEBOUNCE's whole range
     assert nodes["G3"]["type"] == "goal" and nodes["G3"]["ok"] is True and ev.ok
@@ -206,7 +205,7 @@ def test_the_evidence_of_a_corpus_machine_claims_what_its_proofs_give(tmp_path: 
         ev,
         results=[replace(r, proof=replace(proof, parametric=False)) if r.prop == claimed.id else r for r in ev.results],
     )
-    assert not unproved.ok and {n["id"]: n for n in data_argument(unproved)}["G3"]["ok"] is False
+    assert not unproved.ok and {n["id"]: n for n in argument(unproved)}["G3"]["ok"] is False
 
 
 @pytest.mark.slow

@@ -19,7 +19,7 @@ from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import COMPARES_BINARY64, as_wp_sees, needs_arithmetic
 from mlca_verify.conform import conform
 from mlca_verify.conform.outcome import CHECKS, CheckOutcome
-from mlca_verify.evidence.collect import Evidence, data_argument
+from mlca_verify.evidence.collect import Evidence, argument
 from mlca_verify.logic import check_all
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
@@ -172,7 +172,7 @@ def test_the_evidence_of_a_machine_without_params_or_assumptions_claims_nothing_
     spec = load_spec(_spec(tmp_path, NESTED))
     passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *CHECKS)]
     ev = Evidence(spec, check_all(spec.machine), passed, tmp_path, [], "now", loop={"status": "undeveloped"})
-    top = next(n for n in data_argument(ev) if n["id"] == "G1")["text"]
+    top = next(n for n in argument(ev) if n["id"] == "G1")["text"]
     assert top.endswith("meets its specified properties") and "param" not in top and "assumption" not in top
 
 

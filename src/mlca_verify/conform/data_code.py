@@ -542,7 +542,7 @@ def _calls_text(calls: list[str], outside: list[str]) -> str:
     return "no call out of the object"
 
 
-# WP's flags for a machine with data, beside conform.checks.WP, with its budget of steps: MLCA-T's hardest goal
+# WP's flags for a machine with data, beside conform.bool_code.WP, with its budget of steps: MLCA-T's hardest goal
 # takes 13.3 million (11 s here), and the budget is 3 times that.
 WP_STEPS = 40_000_000
 WP_FLAGS = ("-wp-steps", str(WP_STEPS), "-warn-special-float", "none", "-wp-prop=-binary64")

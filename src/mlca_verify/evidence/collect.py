@@ -98,7 +98,7 @@ class Evidence:
     def ok(self) -> bool:
         loop_ok = self.loop.get("status") != "failed"
         results_ok = all(r.ok for r in self.results) and all(o.ok for o in self.outcomes)
-        data_ok = not self.spec.machine.has_data or parametric_ok(self)
+        data_ok = parametric_ok(self)
         tests_ok = self.coverage.get("status") != "failed"
         return results_ok and loop_ok and data_ok and tests_ok and (not self.physics or physics_ok(self.physics))
 
@@ -468,9 +468,8 @@ def _outcome(o: Outcome) -> str:
 # --- the argument -----------------------------------------------------------------------------------------
 
 
-def proofs_goal(node: Callable[..., None], results: list[Result], with_how: bool) -> None:
-    """G2: every check of the spec has its expected verdict, a solution per proof (with how it was decided, for
-    a machine with data)."""
+def proofs_goal(node: Callable[..., None], results: list[Result]) -> None:
+    """G2: every check of the spec has its expected verdict, a solution per proof with how it was decided."""
     node(
         "G2",
         "goal",
@@ -479,8 +478,7 @@ def proofs_goal(node: Callable[..., None], results: list[Result], with_how: bool
         all(r.ok for r in results),
     )
     for k, r in enumerate(results, 1):
-        how = f"; {_how(r)}" if with_how else ""
-        text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}{how}"
+        text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {_how(r)}"
         node(f"Sn2.{k}", "solution", text, "G2", r.ok, link=f"#proof-{anchor(r.prop)}")
 
 
@@ -527,49 +525,11 @@ def loop_goal(node: Callable[..., None], loop: dict[str, Any], number: int, reas
 
 
 def argument(ev: Evidence) -> list[dict[str, Any]]:
-    """GSN nodes: goals, strategies, solutions (each linking to its artifact), contexts, undeveloped goals (and
-    for a machine with data, assumptions: see `data_argument`)."""
-    m: Machine = ev.spec.machine
-    if m.has_data:
-        return data_argument(ev)
-    nodes: list[dict[str, Any]] = []
-
-    def node(nid: str, kind: str, text: str, parent: str | None, ok: bool | None = None, *, link: str = "") -> None:
-        nodes.append({"id": nid, "type": kind, "text": text, "parent": parent, "ok": ok, "link": link or None})
-
-    node(
-        "G1",
-        "goal",
-        f"The generated controller for {m.name} ({ev.spec.path}) meets its specified properties",
-        None,
-        ev.ok,
-    )
-    node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
-    node("S1", "strategy", "Argue over the specification, the generated code, and closed-loop behaviour", "G1")
-    proofs_goal(node, ev.results, with_how=False)
-    code_goals(node, ev.outcomes, CHECKS, 3)
-    loop_goal(node, ev.loop, 6, "no closed-loop results given")
-    if ev.coverage:
-        coverage.coverage_goal(node, ev.coverage, 7)
-    return nodes
-
-
-def _how(r: Result) -> str:
-    """How a property of a machine with data was decided, in a few words."""
-    if r.proof is None:
-        return r.detail.splitlines()[0] if r.detail else "decided on the machine's transitions"
-    pr = r.proof
-    text = pr.engine + (f", k = {pr.k}" if pr.k is not None else "")
-    if pr.certificate is not None:
-        text += ", certificate " + ("confirmed by a separate query" if pr.certificate_checked else "NOT confirmed")
-    text += ", for every param value in range" if pr.parametric else ", at the params' defaults"
-    return text + (f"; {r.caveat}" if r.caveat else "")
-
-
-def data_argument(ev: Evidence) -> list[dict[str, Any]]:
-    """The argument for a machine with data: the proofs, a goal for the params' whole ranges backed by the
-    parametric proofs, an assumption node per [[assume]], the generated code's conformance, and the closed loop
-    (undeveloped: it does not drive such a machine's code yet)."""
+    """GSN nodes: goals, strategies, solutions (each linking to its artifact), contexts, undeveloped goals, and an
+    assumption per [[assume]]. The goals, numbered in this order, are those the machine has: the proofs; the
+    params' whole ranges, backed by the parametric proofs (where it has params or properties declared
+    parametric); the generated code's conformance; the closed loop (undeveloped without runs); the physical
+    safety of its lemmas; the generated test suite's coverage."""
     m: Machine = ev.spec.machine
     nodes: list[dict[str, Any]] = []
 
@@ -578,25 +538,38 @@ def data_argument(ev: Evidence) -> list[dict[str, Any]]:
 
     node("G1", "goal", _top_claim(ev), None, ev.ok)
     node("C1", "context", f"Spec {ev.spec.path}, sha256 {ev.spec.sha256}, source: {m.cite}", "G1", link="#inputs")
-    node(
-        "S1",
-        "strategy",
-        "Argue over the proofs of the spec (z3), under the environment assumptions, the generated code, and "
-        "closed-loop behaviour",
-        "G1",
-    )
+    assumed = ", under the environment assumptions" if m.assumptions else ""
+    strategy = f"Argue over the proofs of the spec (z3){assumed}, the generated code, and closed-loop behaviour"
+    node("S1", "strategy", strategy, "G1")
     for k, a in enumerate(m.assumptions, 1):
         text = f"{a.id}: {show(a.expr)} at every step ({a.doc})" + (f", source: {a.cite}" if a.cite else "")
         node(f"A{k}", "assumption", text, "S1", link=f"#assume-{anchor(a.id)}")
-    proofs_goal(node, ev.results, with_how=True)
-    _parametric_goal(node, ev)
-    code_goals(node, ev.outcomes, CHECKS, 4)
-    loop_goal(node, ev.loop, 7, "no closed-loop results given")
+    proofs_goal(node, ev.results)
+    number = 3
+    if m.params or declared_parametric(ev):
+        _parametric_goal(node, ev)
+        number += 1
+    code_goals(node, ev.outcomes, CHECKS, number)
+    loop_goal(node, ev.loop, number + 3, "no closed-loop results given")
+    number += 4
     if ev.physics:
-        physics_goal(node, ev, 8)
+        physics_goal(node, ev, number)
+        number += 1
     if ev.coverage:
-        coverage.coverage_goal(node, ev.coverage, 9 if ev.physics else 8)
+        coverage.coverage_goal(node, ev.coverage, number)
     return nodes
+
+
+def _how(r: Result) -> str:
+    """How a property was decided, in a few words."""
+    if r.proof is None:
+        return r.detail.splitlines()[0] if r.detail else "decided on the machine's transitions"
+    pr = r.proof
+    text = pr.engine + (f", k = {pr.k}" if pr.k is not None else "")
+    if pr.certificate is not None:
+        text += ", certificate " + ("confirmed by a separate query" if pr.certificate_checked else "NOT confirmed")
+    text += ", for every param value in range" if pr.parametric else ", at the params' defaults"
+    return text + (f"; {r.caveat}" if r.caveat else "")
 
 
 def _top_claim(ev: Evidence) -> str:

@@ -101,7 +101,8 @@ class Checker:
             step = Step(move.source, inputs, outs[0], outs[1:])
             detail = f"in {move.source} {len(outs)} transitions are enabled at once"
             return Finding("violated", Counterexample((*self.prefix(move.source), step)), detail)
-        return Finding(_verdict_if_clean(self.reach, hit is False))
+        verdict = _verdict_if_clean(self.reach, hit is False)
+        return Finding(verdict, detail="no reachable state has two transitions to different states enabled at once")
 
     def conflicts(self, state: str) -> list[tuple[Move, z3.BoolRef]]:
         """Each transition of `state`, with the condition that a later one with another target is enabled."""
@@ -130,7 +131,8 @@ class Checker:
                 detail = f"in {state} no transition is enabled and otherwise = undefined"
                 return Finding("violated", Counterexample((*self.prefix(state), step)), detail)
             unknown |= answer == "unknown"
-        return Finding(_verdict_if_clean(self.reach, unknown))
+        verdict = _verdict_if_clean(self.reach, unknown)
+        return Finding(verdict, detail="every reachable state has a transition enabled for every input")
 
     def reachable(self, state: str) -> Finding:
         if state in self.reach.dist:
@@ -243,7 +245,13 @@ class LivenessSearch:
         found = self.bounded() if self.live.within is not None else self.lasso()
         if found is not None:
             return found
-        return Finding(_verdict_if_clean(self.c.reach, self.unknown))
+        verdict = _verdict_if_clean(self.c.reach, self.unknown)
+        moves = count(sum(1 for _ in self.c.reach.moves()), "reachable move")
+        if self.live.within is not None:
+            how = f"no run keeps the assumption for {count(self.live.within, 'step')} without the goal"
+        else:
+            how = "no reachable loop keeps the goal away, and no run gets stuck while the assumption holds"
+        return Finding(verdict, detail=f"{how} (over {moves})" if verdict == "holds" else "")
 
     def steps(self, moves: list[Move]) -> list[Step]:
         return [make_step(self.c.enc, m, self.restrict(m)) for m in moves]
