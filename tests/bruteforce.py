@@ -104,7 +104,7 @@ class Explicit:
                 if not ev(live.assume, i):
                     continue
                 outs = self.fired(s, i)
-                if not outs:
+                if not outs and not ev(live.goal, i, s):  # stuck in s, which it keeps: the goal never comes
                     stuck.add(s)
                 succ[s] |= {t for _, t in outs if not ev(live.goal, i, t)}
         return succ, stuck

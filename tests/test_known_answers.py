@@ -9,7 +9,7 @@ import pytest
 from mlca_verify.logic import check_all
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Invariant, Liveness, Machine
-from mlca_verify.spec import load_spec
+from mlca_verify.spec import load_spec, load_text
 from tests.bruteforce import Explicit
 from tests.conftest import ROOT
 
@@ -31,7 +31,13 @@ ANSWERS = [
     ("tests/corpus/counter.toml", "counts-to-four-in-3", V, 3, None),
     ("tests/corpus/counter.toml", "reaches-S2", V, 1, 0),
     ("tests/corpus/pingpong.toml", "completeness", V, 2, None),
-    ("tests/corpus/pingpong.toml", "reaches-C", V, 2, None),
+    (
+        "tests/corpus/pingpong.toml",
+        "reaches-C",
+        V,
+        2,
+        0,
+    ),  # x: ping and pong forever (stuck in C is no answer: C is the goal)
     ("tests/corpus/pingpong.toml", "equiv:PingPongTwin", H, None, None),
     ("tests/corpus/pingpong.toml", "equiv:PingPongLate", V, 2, None),
     ("spec/mlca.toml", "A2", H, None, None),
@@ -120,3 +126,24 @@ def test_bruteforce_agrees_with_the_corpus(
     bounded = any(p.id == prop and p.within is not None for p in SPECS[spec].liveness)
     if not (bounded or prop.startswith(("reach:", "fires:"))):  # the explorer gives these a verdict only
         assert shortest == length
+
+
+def test_a_machine_stuck_where_the_goal_holds_has_met_it() -> None:
+    """A run that gets stuck (a gap, otherwise = undefined) in a state where the goal holds has met the goal: it
+    keeps that state. Before, a response whose goal is the very state the machine gets stuck in was reported
+    violated, with a counterexample that reaches the goal. Stuck where the goal does not hold, it is violated."""
+    text = (ROOT / "tests" / "corpus" / "pingpong.toml").read_text(encoding="utf-8").split("[[compare]]")[0]
+    text += '[[liveness]]\nid = "y-reaches-C"\nassume = "y"\ngoal = "state == C"\ncite = "corpus"\n'
+    machine = load_text(text, "pingpong.toml")
+    found = {r.prop: r for r in check_all(machine)}
+    assert found["y-reaches-C"].verdict == "holds", found["y-reaches-C"].detail
+    stuck = found["C-is-stuck"]  # stuck in C, and the goal is A
+    assert stuck.verdict == "violated" and stuck.counterexample is not None
+    assert stuck.counterexample.steps[-1].state == "C" and stuck.counterexample.steps[-1].outcome.transition is None
+    reaches = found["reaches-C"]  # still violated, now by its lasso through A and B (x holds, y does not)
+    assert reaches.verdict == "violated" and reaches.counterexample is not None
+    assert reaches.counterexample.loop_start is not None
+    assert {s.state for s in reaches.counterexample.steps} == {"A", "B"}
+    brute = Explicit(machine)
+    live = next(lv for lv in machine.liveness if lv.id == "y-reaches-C")
+    assert brute.liveness(live) is None

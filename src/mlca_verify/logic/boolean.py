@@ -214,8 +214,8 @@ class LivenessSearch:
     """Looks for a run on which `assume` holds from some step on while `goal` never does.
 
     The restricted graph keeps the moves whose step satisfies `assume and not goal`. A violation is a reachable
-    lasso in it, or a path in it to a gap (the machine is stuck while the assumption holds); with `within = K`,
-    any K restricted steps in a row."""
+    lasso in it, or a path in it to a gap (the machine is stuck while the assumption holds and the goal does not
+    hold where it is stuck); with `within = K`, any K restricted steps in a row."""
 
     def __init__(self, checker: Checker, live: Liveness) -> None:
         self.c = checker
@@ -230,8 +230,15 @@ class LivenessSearch:
             if self.ask(bad):
                 self.succ.setdefault(move.source, []).append(move)
         for state in checker.reach.order:
-            if state in checker.enc.gaps and self.ask(z3.And(checker.enc.gaps[state], self.assume)):
+            if state in checker.enc.gaps and self.ask(self.stalls(state)):
                 self.stuck.add(state)
+
+    def stalls(self, state: str) -> z3.BoolRef:
+        """Inputs under which the machine is stuck in `state` (a gap: no transition enabled, otherwise =
+        undefined) while the assumption holds and the goal does not hold there: the run ends in `state`, which
+        it keeps, so the goal never comes. Stuck where the goal holds, it has come."""
+        goal = encode(self.live.goal, self.c.solver.vars, state)
+        return z3.And(self.c.enc.gaps[state], self.assume, z3.Not(goal))
 
     def ask(self, formula: z3.BoolRef) -> bool:
         answer = self.c.solver.check(formula)
@@ -257,7 +264,7 @@ class LivenessSearch:
         return [make_step(self.c.enc, m, self.restrict(m)) for m in moves]
 
     def stuck_step(self, state: str) -> Step:
-        inputs = self.c.solver.witness(z3.And(self.c.enc.gaps[state], self.assume))
+        inputs = self.c.solver.witness(self.stalls(state))
         assert inputs is not None
         return Step(state, inputs, Outcome(None, None, None))
 
