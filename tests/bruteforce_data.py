@@ -216,6 +216,7 @@ class Check:
     total: bool = False  # `otherwise = "undefined"` read as "stay" (the completeness check)
     monitor: Liveness | None = None
     bound: Expr | None = None
+    stuck_ends: bool = False  # with `total`: a step no transition takes is tested, and the run ends there
 
 
 @dataclass(frozen=True)
@@ -379,6 +380,8 @@ class DataExplorer:
                         inputs.append(back[1])
                         back = parent[back[0]]
                     return Found(len(inputs), dict(params), tuple(reversed(inputs)))
+                if check.stuck_ends and mv.transition is None and self.m.otherwise == "undefined":
+                    continue  # the machine is stuck: no run goes on from here
                 if nxt not in parent:
                     parent[nxt] = (node, mv.inputs)
                     queue.append(nxt)
@@ -424,12 +427,17 @@ class DataExplorer:
                 raise ValueError(f"{live.id}: only bounded responses are explored")
             bound = Num(Fraction(live.within), False)
         b = bound
-        return Check(
-            _prevs(live.assume, live.goal, b),
-            lambda pre, mv, post, n: n >= _number(ev(b, post)),
-            monitor=live,
-            bound=b,
-        )
+        undefined = self.m.otherwise == "undefined"
+
+        reads_prev = bool(_prevs(live.assume, live.goal))
+
+        def bad(pre: Point, mv: Move, post: Point, n: int | Fraction) -> bool:
+            if undefined and mv.transition is None:  # stuck, keeping its state: short of the goal, it never comes
+                at = post if reads_prev else pre  # prev() is read after a step: the stay the step is read as
+                return _truth(ev(live.assume, at)) and not _truth(ev(live.goal, at))
+            return n >= _number(ev(b, post))
+
+        return Check(_prevs(live.assume, live.goal, b), bad, total=undefined, monitor=live, bound=b, stuck_ends=True)
 
     def checks(self) -> Iterator[tuple[str, Check, bool, bool]]:
         """(property, check, parametric, reachability-like): for a reachability-like check (reach, fires) the

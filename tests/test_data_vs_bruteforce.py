@@ -362,8 +362,9 @@ def check_replay(ex: DataExplorer, prop: str, cx: Counterexample, parametric: bo
         same("state", step.state, rec.state)
         assert rec.assumed, f"{where}: the environment assumption fails"
         same("definitions", step.definitions, rec.definitions)
-        if prop == "completeness" and k == len(cx.steps) - 1:
-            assert step.outcome.transition is None and not rec.enabled, f"{where}: {rec.transition} is enabled"
+        stuck = m.otherwise == "undefined" and step.outcome.transition is None
+        if k == len(cx.steps) - 1 and stuck:  # the run ends stuck: completeness, or a response short of its goal
+            assert not rec.enabled, f"{where}: {rec.transition} is enabled"
             continue
         if m.otherwise == "undefined":
             assert rec.enabled, f"{where}: no transition is enabled and otherwise = undefined"

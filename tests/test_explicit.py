@@ -344,3 +344,84 @@ def test_a_lasso_still_needs_a_step_where_a_register_reads_the_first_one() -> No
     results = {r.prop: r for r in DataChecker(machine, Limits()).run_all()}
     found = results["gap-taken"].counterexample
     assert found is not None and found.loop_start is not None and found.loop_start >= 1
+
+
+STALL = """
+[machine]
+name = "Tank"
+initial = "FILL"
+states = ["FILL", "FULL"]
+otherwise = "undefined"
+[inputs]
+pump = { doc = "the pump runs" }
+[variables]
+level = { type = "int", initial = 0, range = [0, 3], every = "min(level + 1, 3)", doc = "the level" }
+[[transition]]
+from = "FILL"
+to = "FILL"
+when = "level < 3"
+[[transition]]
+from = "FILL"
+to = "FULL"
+when = "level >= 3 and pump"
+[[liveness]]
+id = "drains"
+assume = "pump"
+goal = "state == FILL"
+[[liveness]]
+id = "fills"
+assume = "pump"
+goal = "state == FULL"
+[[liveness]]
+id = "drains-within-5"
+assume = "pump"
+goal = "state == FILL"
+within = 5
+"""
+
+
+@pytest.mark.parametrize("limits", [Limits(), Limits(steps=0)], ids=["explicit", "symbolic"])
+def test_a_response_is_violated_by_a_machine_stuck_short_of_its_goal(limits: Limits) -> None:
+    """Stuck (no transition enabled, otherwise = "undefined") the machine keeps its state: where the assumption
+    holds and the goal does not, the goal never comes, however long the bound; stuck where the goal holds, it has
+    come. The explicit engine and the symbolic ones (with no configuration to search) say the same."""
+    found = {r.prop: r for r in DataChecker(load_text(STALL, "tank.toml"), limits).run_all()}
+    for prop in ("drains", "drains-within-5"):
+        stuck = found[prop]
+        assert stuck.verdict == "violated", (prop, stuck.detail)
+        assert stuck.counterexample is not None and stuck.counterexample.steps[-1].outcome.transition is None
+        assert stuck.counterexample.steps[-1].state == "FULL" and "gets stuck in FULL" in stuck.detail
+    # stuck in FULL, its goal: not violated (the symbolic engines prove no response without a bound: unknown)
+    assert found["fills"].verdict == ("holds" if limits.steps else "unknown"), found["fills"].detail
+
+
+def _first_match_without_data() -> list[Path]:
+    paths = [*(ROOT / "spec").rglob("*.toml"), *(ROOT / "tests").rglob("*.toml")]
+    found = []
+    for path in sorted(paths):
+        try:
+            machine = load_spec(path, compare=False).machine
+        except Exception:  # a spec the loader refuses (the broken fixtures) is not a machine
+            continue
+        if not machine.has_data and machine.semantics == "first-match":
+            found.append(path)
+    return found
+
+
+def test_both_engines_give_every_first_match_machine_without_data_the_same_verdicts() -> None:
+    """The engine for machines with data decides a machine without data as the boolean engine does: the same
+    verdict on every check and property, and counterexamples as long, looping from the same step (runs stuck
+    short of a goal included). This is the step before one engine decides every machine."""
+    paths = _first_match_without_data()
+    assert len(paths) >= 30
+    for path in paths:
+        machine = load_spec(path, compare=False).machine
+        ours = {r.prop: r for r in DataChecker(machine, Limits()).run_all()}
+        theirs = {r.prop: r for r in check_all(machine) if not r.prop.startswith("equiv:")}
+        assert ours.keys() == theirs.keys(), path
+        for prop, r in theirs.items():
+            assert ours[prop].verdict == r.verdict, (path.name, prop, ours[prop].detail, r.detail)
+            a, b = ours[prop].counterexample, r.counterexample
+            assert (a is None) == (b is None), (path.name, prop)
+            if a is not None and b is not None:
+                assert (len(a.steps), a.loop_start) == (len(b.steps), b.loop_start), (path.name, prop)

@@ -368,18 +368,19 @@ class DataChecker:
 
         found = self.search((), bad, parametric=self.parametric, total=True, target="completeness")
         if found.answer == "reachable" and found.path is not None:
-            cx = self.trace(found.path)
-            last = cx.steps[-1]
-            stuck = Step(
-                last.state, last.inputs, Outcome(None, None, None), signals=last.signals, definitions=last.definitions
-            )
-            return (
-                "violated",
-                found,
-                f"in {last.state} no transition is enabled and otherwise = undefined",
-                Counterexample((*cx.steps[:-1], stuck), None, cx.params),
-            )
+            cx = self.stuck_trace(found.path)
+            detail = f"in {cx.steps[-1].state} no transition is enabled and otherwise = undefined"
+            return "violated", found, detail, cx
         return self.proved(found)
+
+    def stuck_trace(self, path: Path) -> Counterexample:
+        """The trace of a run whose last step the machine cannot take (a total system stays there)."""
+        cx = self.trace(path)
+        last = cx.steps[-1]
+        stuck = Step(
+            last.state, last.inputs, Outcome(None, None, None), signals=last.signals, definitions=last.definitions
+        )
+        return Counterexample((*cx.steps[:-1], stuck), None, cx.params)
 
     def proved(self, found: Search, what: str = "") -> Decision:
         if found.answer == "unreachable" and found.engine == "pdr" and not found.certificate_checked:
@@ -515,7 +516,8 @@ class DataChecker:
         exprs = (live.assume, live.goal, bound)
         found = self.search(exprs, bad, parametric=parametric, monitors=(monitor,), target=live.id)
         span = count(int(bound.value), "step") if isinstance(bound, Num) else "the whole bound"
-        return self.violation(found, f"the assumption holds for {span} and the goal is not met")
+        waited = self.violation(found, f"the assumption holds for {span} and the goal is not met")
+        return _with_stall(self.stall(live, parametric), waited)
 
     def explicit_loop(
         self, finite: Finite, live: Liveness, real: System, restricted: Callable[[StepTerms], z3.BoolRef]
@@ -536,6 +538,36 @@ class DataChecker:
         return None
 
     def lasso(self, live: Liveness, parametric: bool) -> Decision:
+        """A response without a bound: violated by a run that gets stuck where the assumption holds and the goal
+        does not (see `stall`), or by a lasso on which the assumption holds and the goal never does; the shorter
+        of the two counterexamples is shown (the stuck run where they are as long)."""
+        return _with_stall(self.stall(live, parametric), self.loop(live, parametric))
+
+    def stall(self, live: Liveness, parametric: bool) -> Decision | None:
+        """Where the machine may be undefined (otherwise = "undefined"): can it get stuck in a state where the
+        assumption holds and the goal does not (it keeps that state, so the goal never comes, however long the
+        bound)? None where it cannot get stuck at all, or where no such step is reachable."""
+        if self.m.otherwise != "undefined":
+            return None
+
+        reads_prev = bool(prevs_of(live.assume, live.goal))
+
+        def bad(s: System, pre: Frame, i: StepInputs, post: Frame, t: StepTerms) -> z3.BoolRef:
+            at = t.post if reads_prev else t.pre  # prev() is read after a step: there, the stay the step is read as
+            return z3.And(z3.Not(t.enabled_any), s.ev(live.assume, at), z3.Not(s.ev(live.goal, at)))
+
+        target = None if parametric or reads_prev else f"stall:{live.id}"
+        found = self.search((live.assume, live.goal), bad, parametric=parametric, total=True, target=target)
+        if found.answer == "unreachable":
+            return None
+        if found.answer == "reachable" and found.path is not None:
+            cx = self.stuck_trace(found.path)
+            where = cx.steps[-1].state
+            detail = f"the assumption holds, the goal never does, and the machine gets stuck in {where}"
+            return "violated", found, detail, cx
+        return "unknown", found, found.reason, None
+
+    def loop(self, live: Liveness, parametric: bool) -> Decision:
         _, real = self.systems((live.assume, live.goal), parametric)
 
         def restricted(t: StepTerms) -> z3.BoolRef:
@@ -568,6 +600,22 @@ def _looped(restricted: Callable[[StepTerms], z3.BoolRef], start: int) -> Callab
         return z3.And(*same, *[restricted(t) for t in path.terms[start:]])
 
     return final
+
+
+def _with_stall(stuck: Decision | None, other: Decision) -> Decision:
+    """A response's verdict from its runs that wait (a lasso, or the bound's steps: `other`) and from a run that
+    gets stuck short of the goal (`stuck`, None where none can): violated by either, the shorter counterexample
+    shown (the stuck run where they are as long); unknown where `other` holds and the stuck run is undecided."""
+    if stuck is None:
+        return other
+    if stuck[0] == "violated":
+        if other[0] == "violated" and other[3] is not None and stuck[3] is not None:
+            return other if len(other[3].steps) < len(stuck[3].steps) else stuck
+        return stuck
+    if other[0] == "violated":
+        return other
+    _, search, reason, _ = stuck
+    return "unknown", search, f"{other[2]}; but whether the machine can get stuck short of the goal: {reason}", None
 
 
 def _looping(search: Search, trace: Counterexample) -> Decision:

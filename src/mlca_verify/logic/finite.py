@@ -44,7 +44,7 @@ from mlca_verify.logic.explicit import (
 from mlca_verify.logic.induction import Path
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Step
 from mlca_verify.logic.symbolic import Frame, System, python_value, value_of
-from mlca_verify.model import BinOp, Cmp, Expr, Liveness, Machine, Num, Range, Type, Var
+from mlca_verify.model import BinOp, Cmp, Expr, Liveness, Machine, Num, Range, Type, Var, prevs_of
 
 WITNESS_STEPS = 200_000  # steps a first search may take to find every witness before the symbolic engines try
 STEPS = 3_000_000  # steps a search may take in all
@@ -75,6 +75,7 @@ class Finite:
         self.counters: dict[str, Counter] = {}
         self.unbounded: dict[str, Callable[[Env], bool]] = {}
         self.goals: dict[str, Goal] = {}
+        self.stalls: dict[str, Goal] = {}  # stall:<response>: stuck where its assumption holds and its goal does not
         try:
             self._build()
         except (NotFinite, TooManyClasses) as exc:
@@ -96,6 +97,7 @@ class Finite:
         for live in m.liveness:
             if not live.parametric:
                 self._compiled(partial(self._liveness, live))
+        goals.update(self.stalls)
         registers = [c.compile(p.arg) for p in list(c.prevs)]
         if len(registers) != len(c.prevs):
             raise NotFinite("prev() inside prev()")
@@ -147,6 +149,9 @@ class Finite:
         assume, goal, bound = c.compile(live.assume), c.compile(live.goal), live.steps_bound
         if bound is None:
             self.unbounded[live.id] = lambda e: bool(assume(e)) and not goal(e)
+            if self.m.otherwise == "undefined" and not prevs_of(live.assume, live.goal):  # read before a step
+                name = f"stall:{live.id}"
+                self.stalls[name] = Goal(name, _stalls(assume, goal))
         else:
             self.counters[live.id] = Counter(assume, goal, c.compile(bound))
 
@@ -369,6 +374,16 @@ def _within(name: str, kind: Type, bounds: Range) -> Expr:
 
 def _stuck(before: Env, after: Env | None, fired: int, nxt: Config | None) -> bool:
     return after is None
+
+
+def _stalls(assume: Eval, goal: Eval) -> Test:
+    """A step the machine cannot take (stuck: it keeps its state) under inputs that keep a response's assumption
+    where its goal does not hold: the goal never comes."""
+
+    def test(before: Env, after: Env | None, fired: int, nxt: Config | None) -> bool:
+        return after is None and bool(assume(before)) and not goal(before)
+
+    return test
 
 
 def _invariant(c: Compiler, expr: Expr) -> Test:
