@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import math
 from collections import deque
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,11 +91,11 @@ class Ledger:
 
     # --- the whole traffic ---------------------------------------------------------------------------------
 
-    def sample(self, edge_ids: list[str], av_speeds: float, avs: int) -> None:
+    def sample(self, edge_ids: Callable[[], Sequence[str]], av_speeds: float, avs: int) -> None:
         """Add the other traffic's speeds this step (every vehicle on a normal edge, less the AVs), and the density
-        of all traffic (vehicles per km of lane on the normal edges); `edge_ids` are SUMO's edges."""
+        of all traffic (vehicles per km of lane on the normal edges); `edge_ids` lists SUMO's edges, asked once."""
         if not self.edges:
-            self.edges = [e for e in edge_ids if not e.startswith(":")]
+            self.edges = [e for e in edge_ids() if not e.startswith(":")]
             self.lane_km = sum(self.network.lane_length(e) * self.network.lanes[e] for e in self.edges) / 1000.0
         total, count, vehicles = -av_speeds, -avs, 0
         for e in self.edges:

@@ -90,7 +90,6 @@ class ClosedLoop:
         self.trail = self.ledger.trail
         self.avs: dict[str, Driving] = {}  # every AV that has departed
         self.driving: list[Driving] = []  # those not yet arrived, in the order of their ids
-        self.dt = scenario.traffic.step_s
         self.steps = 0
         self.remaining = len(av_ids)  # the AVs that have not arrived
 
@@ -112,7 +111,7 @@ class ClosedLoop:
                 speeds += self.drive(av, t, claims)
         self.steps += 1
         if self.steps % SAMPLE_STEPS == 0:
-            self.ledger.sample(self.sumo.edge.getIDList(), speeds, len(self.driving))
+            self.ledger.sample(self.sumo.edge.getIDList, speeds, len(self.driving))
 
     def enter(self, vid: str, t: float) -> Driving:
         """Start keeping AV `vid`, departed at `t`."""
