@@ -75,7 +75,6 @@ class Finite:
         self.counters: dict[str, Counter] = {}
         self.unbounded: dict[str, Callable[[Env], bool]] = {}
         self.goals: dict[str, Goal] = {}
-        self.stalls: dict[str, Goal] = {}  # stall:<response>: stuck where its assumption holds and its goal does not
         try:
             self._build()
         except (NotFinite, TooManyClasses) as exc:
@@ -96,8 +95,7 @@ class Finite:
                 goals[inv.id] = Goal(inv.id, test)
         for live in m.liveness:
             if not live.parametric:
-                self._compiled(partial(self._liveness, live))
-        goals.update(self.stalls)
+                self._compiled(partial(self._liveness, live, goals))
         registers = [c.compile(p.arg) for p in list(c.prevs)]
         if len(registers) != len(c.prevs):
             raise NotFinite("prev() inside prev()")
@@ -144,16 +142,18 @@ class Finite:
             self.compiler.atoms, self.compiler.prevs = atoms, prevs
             return None
 
-    def _liveness(self, live: Liveness) -> None:
+    def _liveness(self, live: Liveness, goals: dict[str, Goal]) -> None:
+        """A response: its waiting steps (a label, or a counter for a bound) and, where the machine may be stuck,
+        the goal stall:<id> (stuck where its assumption holds and its goal does not; read before a step, so not
+        for a response that reads prev())."""
         c = self.compiler
         assume, goal, bound = c.compile(live.assume), c.compile(live.goal), live.steps_bound
         if bound is None:
             self.unbounded[live.id] = lambda e: bool(assume(e)) and not goal(e)
-            if self.m.otherwise == "undefined" and not prevs_of(live.assume, live.goal):  # read before a step
-                name = f"stall:{live.id}"
-                self.stalls[name] = Goal(name, _stalls(assume, goal))
         else:
             self.counters[live.id] = Counter(assume, goal, c.compile(bound))
+        if self.m.otherwise == "undefined" and not prevs_of(live.assume, live.goal):
+            goals[f"stall:{live.id}"] = Goal(f"stall:{live.id}", _stalls(assume, goal))
 
     # --- answers -------------------------------------------------------------------------------------
 
