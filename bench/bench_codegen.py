@@ -14,6 +14,11 @@ mode now and then) and stops at the first step where their outputs or contexts d
 that of the step and every function it calls (a link from the step with --gc-sections, libgcc's soft-float
 helpers left out), since the generated object also holds the monitor and the param check; the whole object's
 .text is printed too.
+
+The boolean machines (Alg. 1 and its repair) are then generated a second time, through the pipeline for machines
+with data (its IR and templates, the step's API over a context), and compared with the shipped boolean code: the
+same fixed inputs as the first table, the same trajectory required, instructions per step and the Cortex-M4 .text
+of the step with what it calls. Target: the pipeline for data at most as large and as slow as the boolean one.
 """
 
 from __future__ import annotations
@@ -23,6 +28,10 @@ import re
 import subprocess
 import tempfile
 from pathlib import Path
+
+from mlca_verify.codegen import data_ir
+from mlca_verify.codegen.render import TEMPLATE_DIR, render_data
+from mlca_verify.spec import load_spec
 
 ROOT = Path(__file__).resolve().parent.parent
 GENERATED = ROOT / "generated" / "c"
@@ -261,7 +270,7 @@ def callgrind_instructions(function: str, exe: Path, steps: int, work: Path) -> 
     return total / steps, done.stdout.strip()
 
 
-def mlca_t_text_bytes(function: str, source: Path, work: Path) -> tuple[int, int]:
+def step_text_bytes(function: str, source: Path, work: Path) -> tuple[int, int]:
     """Cortex-M4 .text of the step with every function it calls, and of the whole object."""
     obj = work / f"{function}.arm.o"
     elf = work / f"{function}.arm.elf"
@@ -286,7 +295,7 @@ def mlca_t_section(steps: int) -> None:
         for label, (function, source) in MLCA_T_CANDIDATES.items():
             per_step, replay = callgrind_instructions(function, exe, steps, work)
             assert replay == trajectory, f"the run under callgrind differs from the native one: {replay}"
-            rows[label] = (per_step, *mlca_t_text_bytes(function, source, work))
+            rows[label] = (per_step, *step_text_bytes(function, source, work))
     print(f"\nMLCA-T (spec/mlca_t.toml): {steps} steps, generated and hand-written in lockstep, identical outputs")
     print("and contexts at every step (gcc -O2 -ffp-contract=off)")
     print(trajectory + "\n")
@@ -297,6 +306,84 @@ def mlca_t_section(steps: int) -> None:
     print(f"\nratio generated / hand-written: instructions {gen[0] / hand[0]:.3f}, .text {gen[1] / hand[1]:.3f}")
     print("(.text: the step and the functions it calls, libgcc's soft-float helpers left out)")
     print("target: both at most 1.0")
+
+
+PIPELINE_DRIVER = r"""
+/* Steps {P}_step (the shipped boolean API, by value) or {P}_step over a context (the API for machines with data)
+ * over driver.c's fixed LCG inputs and prints the visits per state. Written by bench/bench_codegen.py. */
+#include <stdio.h>
+#include "{P}_fsm.h"
+
+int main(void)
+{
+    unsigned long k;
+    unsigned int seed = 12345u;
+    unsigned long visits[4] = {0u, 0u, 0u, 0u};
+#ifdef DATA_API
+    {P}_ctx_t c;
+    {P}_outputs_t o;
+    {P}_init(&c);
+#else
+    {P}_state_t s = {M}_INITIAL;
+#endif
+    for (k = 0u; k < STEPS; ++k) {
+        {P}_inputs_t in;
+        unsigned int mode;
+        seed = seed * 1103515245u + 12345u;
+        in.N = ((seed >> 16) & 7u) != 0u;
+        in.W = ((seed >> 19) & 1u) != 0u;
+        in.L = ((seed >> 20) & 3u) == 0u;
+        in.R = ((seed >> 22) & 3u) == 0u;
+#ifdef DATA_API
+        {P}_step(&c, &in, &{P}_DEFAULT_PARAMS, &o);
+        mode = (unsigned)c.mode;
+#else
+        s = {P}_step(s, in);
+        mode = (unsigned)s;
+#endif
+        visits[mode & 3u] += 1u;
+    }
+    printf("%lu %lu %lu %lu\n", visits[0], visits[1], visits[2], visits[3]);
+    return 0;
+}
+"""
+
+
+def pipeline_row(module: str, folder: Path, data: bool, steps: int, work: Path) -> tuple[float, int, str]:
+    """Instructions per step, Cortex-M4 .text of the step with what it calls, and the state visits."""
+    tag = "data" if data else "bool"
+    driver = work / f"drive_{module}_{tag}.c"
+    driver.write_text(PIPELINE_DRIVER.replace("{P}", module).replace("{M}", module.upper()))
+    exe = work / f"drive_{module}_{tag}"
+    sh("gcc", "-std=c99", "-O2", f"-I{folder}", *(["-DDATA_API"] if data else []), f"-DSTEPS={steps}u",
+       "-o", str(exe), str(driver), str(folder / f"{module}_fsm.c"))  # fmt: skip
+    per_step, visits = callgrind_instructions(f"{module}_step", exe, steps, work)
+    size, _ = step_text_bytes(f"{module}_step", folder / f"{module}_fsm.c", work / tag)
+    return per_step, size, visits
+
+
+def pipeline_section(steps: int) -> None:
+    print("\nOne pipeline: the boolean machines generated through the pipeline for machines with data")
+    print(f"{'machine':10} {'pipeline':10} {'instructions/step':>18} {'Cortex-M4 .text B':>18}  visits")
+    with tempfile.TemporaryDirectory() as folder:
+        work = Path(folder)
+        for name in ("mlca", "mlca_r"):
+            spec = load_spec(ROOT / "spec" / f"{name}.toml")
+            out = work / name / "generated"
+            for rel, text in render_data(data_ir(spec, out), TEMPLATE_DIR).items():
+                (out / rel).parent.mkdir(parents=True, exist_ok=True)
+                (out / rel).write_text(text, encoding="utf-8")
+            (work / "bool").mkdir(exist_ok=True)
+            (work / "data").mkdir(exist_ok=True)
+            rows = {
+                "boolean": pipeline_row(name, GENERATED, False, steps, work),
+                "data": pipeline_row(name, out / "c", True, steps, work),
+            }
+            assert len({r[2] for r in rows.values()}) == 1, f"{name}: the pipelines disagree on the run: {rows}"
+            for label, (per_step, size, visits) in rows.items():
+                print(f"{name:10} {label:10} {per_step:18.2f} {size:18d}  {visits}")
+            (bi, bs, _), (di, ds, _) = rows["boolean"], rows["data"]
+            print(f"{name:10} {'ratio':10} {di / bi:18.3f} {ds / bs:18.3f}  (data / boolean; target at most 1.0)")
 
 
 def main() -> None:
@@ -323,6 +410,7 @@ def main() -> None:
     )
     print("target: both at most 1.0")
     mlca_t_section(args.steps)
+    pipeline_section(args.steps)
 
 
 if __name__ == "__main__":

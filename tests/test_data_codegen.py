@@ -7,6 +7,7 @@ from __future__ import annotations
 import ast
 import math
 import os
+import random
 import shutil
 import subprocess
 import sys
@@ -15,11 +16,19 @@ from pathlib import Path
 import pytest
 
 from mlca_verify.cli import main
-from mlca_verify.codegen import generate
+from mlca_verify.codegen import data_ir, generate, write
 from mlca_verify.conform import conform
 from mlca_verify.conform.bool_code import WP
 from mlca_verify.conform.data_code import WP_FLAGS
-from mlca_verify.loading import import_generated
+from mlca_verify.layout import Layout
+from mlca_verify.loading import (
+    FIRED_MASK,
+    FIRED_SHIFT,
+    DataPythonMachine,
+    build_data_c,
+    flag_definitions,
+    import_generated,
+)
 from mlca_verify.spec import load_spec
 from mlca_verify.tools import C_FLAGS
 from tests.conftest import ROOT
@@ -336,3 +345,66 @@ def test_prev_of_an_output_is_generated_and_agrees_with_the_spec(tmp_path: Path)
     outcomes = conform(spec, tmp_path / "gen", ["exhaustive", "sequences"], lambda _: None).outcomes
     assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
     assert "agree-kept (not proved (violated)) fails" in next(o for o in outcomes if o.name == "sequences").detail
+
+
+CONVEYOR = ROOT / "tests" / "fixtures" / "conveyor_stop.toml"
+
+
+def _c_function(source: str, header: str) -> str:
+    """The text of the C function whose definition starts with `header`, to its closing brace."""
+    start = source.index(f"\n{header}")
+    return source[start : source.index("\n}\n", start)]
+
+
+def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) -> None:
+    """The conveyor keeps no variable and no prev(): its context is the mode, with no first-step flag; its step
+    tests the emergency stop (from every mode to the fallback one) once, before the modes, and writes the next
+    mode itself. MLCA-T, with timers and prev(), keeps both the flag and the transition's number."""
+    files = generate(load_spec(CONVEYOR), tmp_path / "generated")
+    header, source = files["c/conveyor_fsm.h"], files["c/conveyor_fsm.c"]
+    context = header[header.index("typedef struct {\n    conveyor_state_t mode;") :]
+    assert "bool first;" not in context[: context.index("} conveyor_ctx_t;")]
+    step = _c_function(source, "void conveyor_step(")
+    assert step.index("if (i->stop) {") < step.index("c->mode == CONVEYOR_HALTED")
+    assert "fired" not in step and "next.mode = conveyor_to_RUNNING(c, i, p);" in step
+    creeping = _c_function(source, "static conveyor_state_t conveyor_to_CREEPING(")
+    assert "i->stop" not in creeping  # the hoisted test is not repeated in the mode's chain
+    kept = generate(load_spec(SPEC), tmp_path / "generated")
+    assert "    bool first;" in kept["c/mlca_t_fsm.h"]
+    assert "const int fired = mlca_t_fired(c, i, p);" in _c_function(kept["c/mlca_t_fsm.c"], "void mlca_t_step(")
+
+
+@pytest.mark.slow
+def test_a_direct_step_passes_every_conform_check(tmp_path: Path) -> None:
+    """The direct step, its hoisted stop and its context without a flag pass every check: WP proves the step
+    against the same contract as the numbered one, and the extension still reports the transition that fired."""
+    spec = tmp_path / "conveyor_stop.toml"
+    shutil.copy(CONVEYOR, spec)
+    assert main(["gen", str(spec), "--out", str(tmp_path / "generated")]) == 0
+    checks = ["compile", "exhaustive", "sequences", "frama-c-wp", "cppcheck", "cortex-m4", "sanitizers"]
+    outcomes = conform(load_spec(spec, compare=False), tmp_path / "generated", checks, lambda _: None).outcomes
+    assert [o.name for o in outcomes if not o.ok] == [], [(o.name, o.detail[:300]) for o in outcomes if not o.ok]
+
+
+def test_the_c_adapter_of_a_direct_step_reports_what_the_python_one_does(tmp_path: Path) -> None:
+    """The closed loop reads the mode, the transition that fired and the boolean definitions from one packed
+    answer; the direct step has no numbered transition, so its C adapter finds it by the step's own tests. Both
+    answers agree at every step of a seeded run over every input and a spread of samples (NaN included)."""
+    spec = load_spec(CONVEYOR)
+    out = tmp_path / "generated"
+    write(generate(spec, out), out)
+    ir = data_ir(spec, out)
+    layout = Layout(out, ir.module)
+    flags = flag_definitions(ir)
+    py = DataPythonMachine(import_generated(layout.python, "_test_conveyor_direct"), flags)
+    c = build_data_c(layout, ir, tmp_path, "_test_conveyor_direct_c")
+    rng = random.Random(7)
+    samples = [0.0, 0.1, 0.39, 0.4, 0.41, 2.5, 10.0, 11.0, -1.0, math.nan]
+    py_ctx, c_ctx = py.context(), c.context()
+    fired = set()
+    for _ in range(400):
+        values = (rng.random() < 0.1, rng.random() < 0.6, rng.choice(samples))
+        py_answer, c_answer = py.advance(py_ctx, *values), c.advance(c_ctx, *values)
+        assert py_answer == c_answer, values
+        fired.add((py_answer[0] >> FIRED_SHIFT) & FIRED_MASK)
+    assert fired == {1, 2, 3, 4, 5, 6}  # none (1: numbered 0, plus one) and each of the five transitions

@@ -105,11 +105,17 @@ class Case:
     closes: bool = False
     repeats: tuple[tuple[Branch, Branch], ...] = ()
     never: tuple[Branch, ...] = ()  # a guard its own text makes false (see `tidy`)
+    hoisted: int = 0  # the leading branches the step tests before telling the modes apart (see `DataIR.hoisted`)
 
     @property
     def code(self) -> tuple[Branch, ...]:
         left_out = {id(b) for b, _ in self.repeats} | {id(b) for b in self.never}
-        return tuple(b for b in self.branches[: self.written] if id(b) not in left_out)
+        return tuple(b for b in self.branches[self.hoisted : self.written] if id(b) not in left_out)
+
+    @property
+    def chain(self) -> tuple[Branch, ...]:
+        """What a chain that tests every branch itself (no step hoists any) tests: the hoisted ones, then `code`."""
+        return (*self.branches[: self.hoisted], *self.code)
 
 
 def closing(guards: Sequence[Expr]) -> int | None:
@@ -122,13 +128,25 @@ def closing(guards: Sequence[Expr]) -> int | None:
     return None
 
 
-def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr]) -> Case:
-    last = closing(guards)
-    written = len(branches) if last is None else last + 1
+def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr], hoisted: int) -> Case:
+    last = closing(guards[hoisted:])
+    written = len(branches) if last is None else hoisted + last + 1
     first = {g: branches[k] for k, g in reversed(list(enumerate(guards[:written])))}
     repeats = tuple((b, first[g]) for b, g in zip(branches[:written], guards, strict=False) if first[g] is not b)
     never = tuple(b for b, g in zip(branches[:written], guards, strict=False) if g == Const(False))
-    return Case(state, index, branches, written, last is not None, repeats, never)
+    return Case(state, index, branches, written, last is not None, repeats, never, hoisted)
+
+
+def _hoisted(m: Machine, guards: Sequence[Expr]) -> int:
+    """How many leading transitions leave every mode for the fallback mode on a condition that is not constant,
+    none repeating or completing the ones before it (a direct step tests them before the modes; see `DataIR`)."""
+    count = 0
+    for t, g in zip(m.transitions, guards, strict=True):
+        leading = t.sources is None and t.target == m.fallback_state and not isinstance(g, Const)
+        if not leading or g in guards[:count] or closing(guards[: count + 1]) == count:
+            break
+        count += 1
+    return count
 
 
 @dataclass(frozen=True)
@@ -200,6 +218,17 @@ class DataIR:
     logic_shapes: tuple[SharedShape, ...] = ()  # the shared rules of `logic`
     guards: tuple[Code, ...] = ()  # of each transition, by its number from 1
     rounded: tuple[Rounded, ...] = ()  # the parts that compute on reals, each a function (see `rounded`)
+    # a context that is its mode alone (no variable, no register): each mode's chain yields the next mode itself,
+    # with no number of the transition to look up its updates by, and the step never reads a first-step flag
+    direct: bool = False
+    # how many leading `from = "*"` transitions to the fallback mode a direct step tests once, before telling the
+    # modes apart: a context whose mode is not a state restarts in the fallback mode too, so the order is free
+    hoisted: int = 0
+
+    @property
+    def first_flag(self) -> bool:
+        """Whether the context keeps a first-step flag: only a register (what prev() reads) needs one."""
+        return bool(self.registers)
 
 
 PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
@@ -265,8 +294,10 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite))
             guards.append(guard)
             known += known_false(t.guard)
-        return _case(state, index, tuple(branches), guards)
+        return _case(state, index, tuple(branches), guards, hoisted)
 
+    direct = not m.variables and not prevs
+    hoisted = _hoisted(m, [tidy(without_known(t.guard, []), names.types) for t in m.transitions]) if direct else 0
     cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     updates = tuple(
         Update(
@@ -318,6 +349,8 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
             for o in m.outputs
         ),
         cases=cases,
+        hoisted=hoisted,
+        direct=direct,
         updates=updates,
         registers=tuple(_register(k, arg, c, stated) for k, arg in enumerate(register_args)),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
@@ -329,8 +362,10 @@ def build_data_ir(m: Machine, module: str, spec_path: str, sha: str, generator: 
         ),
     )
     written = tuple(
-        replace(case, branches=case.code, written=len(case.code), repeats=(), never=()) for case in ir.cases
-    )
+        replace(case, branches=(*case.branches[: case.hoisted], *case.code), written=case.hoisted + len(case.code),
+                repeats=(), never=())
+        for case in ir.cases
+    )  # fmt: skip
     in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts
     used = _called(ir, repr(replace(in_code, definitions=())))
     contracts = _called(ir, repr(replace(ir, definitions=())))  # by the code or the contracts (every branch)

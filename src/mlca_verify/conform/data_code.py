@@ -105,7 +105,7 @@ class Columns:
 
     def parse(self, line: str) -> Row:
         tokens = line.split()
-        reals = [False, *self.var_real, *self.reg_real, False, *self.out_real]
+        reals = [False, *self.var_real, *self.reg_real, *[False] * _flags(self.ir), *self.out_real]
         reals += [False] * len(self.ir.invariants)
         return tuple(_parse(t, r) for t, r in zip(tokens, reals, strict=True))
 
@@ -118,7 +118,8 @@ class Columns:
         values: list[object] = [int(ctx.mode)]
         values += [getattr(ctx, v.name) for v in ir.variables]
         values += [getattr(ctx, f"prev{r.index}") for r in ir.registers]
-        values.append(1 if ctx.first else 0)
+        if ir.first_flag:
+            values.append(1 if ctx.first else 0)
         values += [getattr(out, o.name) for o in ir.outputs]
         values += [1 if inv.id in failing else 0 for inv in ir.invariants]
         return tuple(int(v) if isinstance(v, bool) else v for v in values)
@@ -135,8 +136,9 @@ class Columns:
         for r in ir.registers:
             setattr(ctx, f"prev{r.index}", bool(row[k]) if r.pytype == "bool" else row[k])
             k += 1
-        ctx.first = bool(row[k])
-        k += 1
+        if ir.first_flag:
+            ctx.first = bool(row[k])
+            k += 1
         values = {f.name: bool(row[k + n]) for n, f in enumerate(ir.inputs)}
         k += len(ir.inputs)
         values.update({f.name: row[k + n] for n, f in enumerate(ir.signals)})
@@ -144,7 +146,7 @@ class Columns:
 
     def next_row(self, after: Row, inputs: Row) -> Row:
         """The harness row of the next step: the context after this one, then new inputs."""
-        keep = 1 + len(self.ir.variables) + len(self.ir.registers) + 1
+        keep = context_width(self.ir)
         return after[:keep] + inputs
 
 
@@ -157,6 +159,16 @@ def signal_values(low: float, high: float, real: bool) -> list[float | int]:
         return [int(low), int(high), int(low) - 1, int(high) + 1, (int(low) + int(high)) // 2]
     outside = [math.nextafter(low, -math.inf), math.nextafter(high, math.inf)]
     return [low, high, *outside, (low + high) / 2, 0.0, -0.0, math.nan, math.inf, -math.inf, SUBNORMAL]
+
+
+def _flags(ir: DataIR) -> int:
+    """The columns of the first-step flag: one where the context keeps it (see `DataIR.first_flag`)."""
+    return 1 if ir.first_flag else 0
+
+
+def context_width(ir: DataIR) -> int:
+    """The columns of a context: the mode, the variables, the registers and the first-step flag if kept."""
+    return 1 + len(ir.variables) + len(ir.registers) + _flags(ir)
 
 
 def boundary_rows(ir: DataIR) -> Iterator[Row]:
@@ -174,11 +186,11 @@ def boundary_rows(ir: DataIR) -> Iterator[Row]:
             signal_sets.append([*mids[:k], x, *mids[k + 1 :]])
     registers = [False if r.pytype == "bool" else 0 for r in ir.registers]
     for mode in range(len(ir.states)):
-        for first in (1, 0):
+        for first in ((1,), (0,)) if ir.first_flag else ((),):
             for bits in itertools.product((1, 0), repeat=len(ir.inputs)):
                 for ctx in contexts:
                     for signals in signal_sets:
-                        yield (mode, *ctx, *registers, first, *bits, *signals)
+                        yield (mode, *ctx, *registers, *first, *bits, *signals)
 
 
 def _initial(ir: DataIR) -> list[float | int]:
@@ -253,8 +265,9 @@ class Semantics:
         for reg in self.pre.registers.values():
             fixed.append(reg == (z3.BoolVal(bool(row[k])) if z3.is_bool(reg) else row[k]))
             k += 1
-        fixed.append(self.pre.first == bool(row[k]))
-        k += 1
+        if self.pre.registers:  # else the code keeps no first-step flag: no register reads it
+            fixed.append(self.pre.first == bool(row[k]))
+            k += 1
         for i in m.inputs:
             fixed.append(self.inputs.bools[i.name] == bool(row[k]))
             k += 1
@@ -329,7 +342,7 @@ def exhaustive(t: DataSubject, code: DataCode) -> CheckOutcome:
     restarts = restart_rows(t.ir, rows)
     c_rows = run_harness(code.harness, [*rows, *restarts], columns)
     keep = 1 + len(t.ir.variables)
-    outputs = slice(keep + len(t.ir.registers) + 1, keep + len(t.ir.registers) + 1 + len(t.ir.outputs))
+    outputs = slice(context_width(t.ir), context_width(t.ir) + len(t.ir.outputs))
     for row, c_after in zip(rows, c_rows[: len(rows)], strict=True):
         differ = _languages_differ(code.py, columns, row, c_after)
         if differ:
@@ -344,8 +357,9 @@ def exhaustive(t: DataSubject, code: DataCode) -> CheckOutcome:
     failed = _restart_failure(code.py, columns, restarts, c_rows[len(rows) :])
     if failed:
         return CheckOutcome("exhaustive", False, failed)
+    flag = " and first-step flag" if t.ir.first_flag else ""
     detail = (
-        f"{len(rows)} steps (every mode, boolean combination and first-step flag; each signal at its range ends, "
+        f"{len(rows)} steps (every mode, boolean combination{flag}; each signal at its range ends, "
         "just outside, the middle, ±0, NaN, ±infinity and a subnormal; each variable at 0, its limits and its "
         "initial value): Python and C agree bit for bit, and both agree with z3's semantics of the spec; "
         f"{len(restarts)} steps from a mode that names no state: both restart in {t.ir.fallback} with the initial "
@@ -357,13 +371,13 @@ def exhaustive(t: DataSubject, code: DataCode) -> CheckOutcome:
 def restart_rows(ir: DataIR, rows: Sequence[Row]) -> list[Row]:
     """The boundary rows of the first mode after the first step, each with a mode that names no state instead (a
     context corrupted during a run)."""
-    first = 1 + len(ir.variables) + len(ir.registers)
-    return [(len(ir.states), *row[1:]) for row in rows if row[0] == 0 and row[first] == 0]
+    flag = 1 + len(ir.variables) + len(ir.registers)
+    return [(len(ir.states), *row[1:]) for row in rows if row[0] == 0 and (not ir.first_flag or row[flag] == 0)]
 
 
 def restarted(ir: DataIR) -> Row:
     """The mode, variables, registers and first-step flag a corrupted context restarts with, as the spec says."""
-    return (ir.states.index(ir.fallback), *_initial(ir), *[0] * len(ir.registers), 1)
+    return (ir.states.index(ir.fallback), *_initial(ir), *[0] * len(ir.registers), *[1] * _flags(ir))
 
 
 def _languages_differ(py: ModuleType, columns: Columns, row: Row, c_after: Row) -> str | None:
@@ -437,7 +451,7 @@ def sequences(t: DataSubject, code: DataCode) -> CheckOutcome:
                 return CheckOutcome("sequences", False, f"a proved invariant failed: {sorted(proved & set(failing))}")
             for inv in failing:
                 seen.setdefault(inv, f"{inv} ({said.get(inv, 'not proved')}) fails at seed {seed}, step {len(rows)}")
-            row = after[: 1 + len(t.ir.variables) + len(t.ir.registers) + 1]
+            row = after[: context_width(t.ir)]
         c_rows = run_harness(code.harness, rows, columns)
         for k, (a, b) in enumerate(zip(py_rows, c_rows, strict=True)):
             if not all(_same(x, y) for x, y in zip(a, b, strict=True)):
@@ -472,7 +486,7 @@ def _assumptions(machine: Machine, ir: DataIR) -> Callable[[Row], bool]:
     semantics = Binary64(machine)
     params = {p.name: float(p.default) if p.type == "real" else int(p.default) for p in machine.params}
     names = [v.name for v in ir.variables]
-    first_input = 1 + len(ir.variables) + len(ir.registers) + 1
+    first_input = context_width(ir)
     inputs = [f.name for f in ir.inputs] + [f.name for f in ir.signals]
 
     def holds(row: Row) -> bool:

@@ -25,7 +25,8 @@ _MODE_CASE = re.compile(r"c\.mode == State\.([A-Za-z0-9_]+):")  # the Python `_f
 # a state's block of a machine without data: `if state == State.X:` in Python's `step`, `(s == M_X)` in C's
 _STATE_FUNCTION = re.compile(r"\w+_state_t \w+\(")  # a C function of a machine without data that returns a state
 _STATE_CASE = re.compile(r"\bif state == State\.([A-Za-z0-9_]+):|\(s == [A-Z0-9_]+?_([A-Za-z0-9_]+)\) \{")
-_MODE_FUNCTION = re.compile(r"_fired_([A-Za-z0-9_]+)\(")  # the C function of one mode's chain
+# the C function of one mode's chain: the transition's number, or the next mode itself in a direct step
+_MODE_FUNCTION = re.compile(r"_(?:fired|to)_([A-Za-z0-9_]+)\(")
 _OTHERWISE = re.compile(r"otherwise: the mode is kept")
 _EVERY = re.compile(r"\b(?:next|nxt)\.([A-Za-z0-9_]+) = .*(?:/\* |# )every step: ")  # a variable's every rule
 _OUTPUT = re.compile(r"^\s*(?:o->([A-Za-z0-9_]+) = |([A-Za-z0-9_]+)=)")  # an output's line, in C or in Python

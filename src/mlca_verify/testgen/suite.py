@@ -101,7 +101,7 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
 
 
 def _start(system: System, f: Frame, start: dict[str, bool | int | float]) -> z3.BoolRef:
-    parts = [f.mode == int(start["mode"]), f.first == bool(start["first"])]
+    parts = [f.mode == int(start["mode"]), f.first == bool(start.get("first", False))]  # none: after a step
     parts += [f.variables[v.name] == value_of(Fraction(start[v.name]), v.type) for v in system.m.variables]
     parts += [reg == start[f"prev{k}"] for k, reg in f.registers.items()]
     return z3.And(*parts)
