@@ -3,22 +3,18 @@
 Run on demand: `.venv/bin/python bench/bench_codegen.py [--steps N]`. Prints, side by side in one run:
 - instructions per step on x86-64 (gcc -O2), counted by `valgrind --tool=callgrind` inside the step function
   only, over the same fixed input sequence for every candidate (instruction counts are repeatable, unlike time);
-- Cortex-M4 .text bytes of the step function (arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -Os);
-and the ratio generated / best hand-written reference. Target: both ratios at most 1.0.
+- Cortex-M4 .text bytes of the step with every function it calls (arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -Os,
+  a link from the step with --gc-sections);
+and the ratios generated / best hand-written reference and generated / the boolean pipeline's last code of the same
+spec (bench/reference/boolean: every machine now goes through one pipeline, whose step takes a context). Target:
+every ratio at most 1.0. Alg. 1's repair (spec/mlca_r.toml) is measured against its boolean code the same way.
 
 MLCA-T (spec/mlca_t.toml, the whole decision function: L and R over gap and speed signals, the waiting timer)
 compares the generated mlca_t_step with bench/reference/mlca_t_hand.c (gcc -O2 -ffp-contract=off). One driver,
 written here, runs both in lockstep over a fixed pseudo-random sequence (splitmix64, fixed seed; mostly valid
 samples, some boundary, out-of-range, NaN and infinite ones; N and U toggling; four valid param sets; a corrupted
-mode now and then) and stops at the first step where their outputs or contexts differ. Its Cortex-M4 .text is
-that of the step and every function it calls (a link from the step with --gc-sections, libgcc's soft-float
-helpers left out), since the generated object also holds the monitor and the param check; the whole object's
-.text is printed too.
-
-The boolean machines (Alg. 1 and its repair) are then generated a second time, through the pipeline for machines
-with data (its IR and templates, the step's API over a context), and compared with the shipped boolean code: the
-same fixed inputs as the first table, the same trajectory required, instructions per step and the Cortex-M4 .text
-of the step with what it calls. Target: the pipeline for data at most as large and as slow as the boolean one.
+mode now and then) and stops at the first step where their outputs or contexts differ; the whole object's .text
+is printed too, since the generated object also holds the monitor and the param check.
 """
 
 from __future__ import annotations
@@ -29,54 +25,27 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from mlca_verify.codegen import data_ir
-from mlca_verify.codegen.render import TEMPLATE_DIR, render_data
-from mlca_verify.spec import load_spec
-
 ROOT = Path(__file__).resolve().parent.parent
 GENERATED = ROOT / "generated" / "c"
 REFERENCE = ROOT / "bench" / "reference"
-CANDIDATES = {
-    "generated mlca_step": ("mlca_step", GENERATED / "mlca_fsm.c"),
-    "hand-written, early returns": ("mlca_hand_return", REFERENCE / "mlca_hand.c"),
-    "hand-written, single exit": ("mlca_hand_switch", REFERENCE / "mlca_hand.c"),
+BOOLEAN = REFERENCE / "boolean"
+# label -> (step function, its source, the folder of the header it includes, whether it steps a context)
+Candidate = tuple[str, Path, Path, bool]
+CANDIDATES: dict[str, Candidate] = {
+    "generated mlca_step": ("mlca_step", GENERATED / "mlca_fsm.c", GENERATED, True),
+    "hand-written, early returns": ("mlca_hand_return", REFERENCE / "mlca_hand.c", GENERATED, False),
+    "hand-written, single exit": ("mlca_hand_switch", REFERENCE / "mlca_hand.c", GENERATED, False),
+    "boolean pipeline's mlca_step": ("mlca_step", BOOLEAN / "mlca_fsm.c", BOOLEAN, False),
+}
+REPAIR: dict[str, Candidate] = {
+    "generated mlca_r_step": ("mlca_r_step", GENERATED / "mlca_r_fsm.c", GENERATED, True),
+    "boolean pipeline's mlca_r_step": ("mlca_r_step", BOOLEAN / "mlca_r_fsm.c", BOOLEAN, False),
 }
 
 
 def sh(*args: str, cwd: Path | None = None) -> str:
     done = subprocess.run(args, cwd=cwd, capture_output=True, text=True, check=True)
     return done.stdout + done.stderr
-
-
-def instructions(function: str, source: Path, steps: int, work: Path) -> tuple[float, str]:
-    exe = work / f"drive_{function}"
-    sh("gcc", "-std=c99", "-O2", f"-I{GENERATED}", f"-DSTEP_FN={function}", f"-DSTEPS={steps}u",
-       "-o", str(exe), str(REFERENCE / "driver.c"), str(source))  # fmt: skip
-    out_file = work / f"callgrind.{function}"
-    log = sh(
-        "valgrind", "--tool=callgrind", f"--callgrind-out-file={out_file}", f"--toggle-collect={function}", str(exe)
-    )
-    visits = sh(str(exe)).strip()
-    total = int(re.search(r"Collected : (\d+)", log).group(1))  # type: ignore[union-attr]
-    return total / steps, visits
-
-
-def text_bytes(function: str, source: Path, work: Path) -> int:
-    obj = work / f"{function}.arm.o"
-    sh(
-        "arm-none-eabi-gcc",
-        "-std=c99",
-        "-mcpu=cortex-m4",
-        "-mthumb",
-        "-Os",
-        f"-I{GENERATED}",
-        "-c",
-        "-o",
-        str(obj),
-        str(source),
-    )
-    symbols = sh("arm-none-eabi-nm", "-S", str(obj))
-    return int(re.search(rf"^[0-9a-f]+ ([0-9a-f]+) T {function}$", symbols, re.MULTILINE).group(1), 16)  # type: ignore[union-attr]
 
 
 MLCA_T_SEED = 0x4D4C43412D54  # "MLCA-T"
@@ -270,12 +239,12 @@ def callgrind_instructions(function: str, exe: Path, steps: int, work: Path) -> 
     return total / steps, done.stdout.strip()
 
 
-def step_text_bytes(function: str, source: Path, work: Path) -> tuple[int, int]:
+def step_text_bytes(function: str, source: Path, work: Path, include: Path = GENERATED) -> tuple[int, int]:
     """Cortex-M4 .text of the step with every function it calls, and of the whole object."""
     obj = work / f"{function}.arm.o"
     elf = work / f"{function}.arm.elf"
     sh("arm-none-eabi-gcc", "-std=c99", "-mcpu=cortex-m4", "-mthumb", "-Os", "-ffp-contract=off",
-       "-ffunction-sections", "-fdata-sections", f"-I{GENERATED}", f"-I{REFERENCE}", "-c", "-o", str(obj),
+       "-ffunction-sections", "-fdata-sections", f"-I{include}", f"-I{REFERENCE}", "-c", "-o", str(obj),
        str(source))  # fmt: skip
     sh("arm-none-eabi-gcc", "-mcpu=cortex-m4", "-mthumb", "-nostdlib", "-Wl,--gc-sections", f"-Wl,-e,{function}",
        "-Wl,--unresolved-symbols=ignore-all", "-o", str(elf), str(obj))  # fmt: skip
@@ -308,18 +277,23 @@ def mlca_t_section(steps: int) -> None:
     print("target: both at most 1.0")
 
 
-PIPELINE_DRIVER = r"""
-/* Steps {P}_step (the shipped boolean API, by value) or {P}_step over a context (the API for machines with data)
- * over driver.c's fixed LCG inputs and prints the visits per state. Written by bench/bench_codegen.py. */
+DRIVER = r"""
+/* Steps a candidate over a fixed pseudo-random input sequence (a 32-bit LCG with a fixed seed, so that callgrind
+ * counts the same work for every candidate) and prints the visits per state: the generated step over a context
+ * (-DCONTEXT), or a step by value, STEP_FN. Written by bench/bench_codegen.py. */
 #include <stdio.h>
 #include "{P}_fsm.h"
+
+#ifndef CONTEXT
+{P}_state_t STEP_FN({P}_state_t s, {P}_inputs_t in);
+#endif
 
 int main(void)
 {
     unsigned long k;
     unsigned int seed = 12345u;
     unsigned long visits[4] = {0u, 0u, 0u, 0u};
-#ifdef DATA_API
+#ifdef CONTEXT
     {P}_ctx_t c;
     {P}_outputs_t o;
     {P}_init(&c);
@@ -330,15 +304,15 @@ int main(void)
         {P}_inputs_t in;
         unsigned int mode;
         seed = seed * 1103515245u + 12345u;
-        in.N = ((seed >> 16) & 7u) != 0u;
+        in.N = ((seed >> 16) & 7u) != 0u; /* a lane change is needed 7 steps in 8 */
         in.W = ((seed >> 19) & 1u) != 0u;
         in.L = ((seed >> 20) & 3u) == 0u;
         in.R = ((seed >> 22) & 3u) == 0u;
-#ifdef DATA_API
+#ifdef CONTEXT
         {P}_step(&c, &in, &{P}_DEFAULT_PARAMS, &o);
         mode = (unsigned)c.mode;
 #else
-        s = {P}_step(s, in);
+        s = STEP_FN(s, in);
         mode = (unsigned)s;
 #endif
         visits[mode & 3u] += 1u;
@@ -349,68 +323,56 @@ int main(void)
 """
 
 
-def pipeline_row(module: str, folder: Path, data: bool, steps: int, work: Path) -> tuple[float, int, str]:
+def measure(module: str, candidate: Candidate, steps: int, work: Path) -> tuple[float, int, str]:
     """Instructions per step, Cortex-M4 .text of the step with what it calls, and the state visits."""
-    tag = "data" if data else "bool"
-    driver = work / f"drive_{module}_{tag}.c"
-    driver.write_text(PIPELINE_DRIVER.replace("{P}", module).replace("{M}", module.upper()))
-    exe = work / f"drive_{module}_{tag}"
-    sh("gcc", "-std=c99", "-O2", f"-I{folder}", *(["-DDATA_API"] if data else []), f"-DSTEPS={steps}u",
-       "-o", str(exe), str(driver), str(folder / f"{module}_fsm.c"))  # fmt: skip
-    per_step, visits = callgrind_instructions(f"{module}_step", exe, steps, work)
-    size, _ = step_text_bytes(f"{module}_step", folder / f"{module}_fsm.c", work / tag)
+    function, source, include, context = candidate
+    tag = f"{function}_{source.parent.name}_{source.stem}"
+    driver = work / f"drive_{tag}.c"
+    driver.write_text(DRIVER.replace("{P}", module).replace("{M}", module.upper()))
+    exe = work / f"drive_{tag}"
+    sh("gcc", "-std=c99", "-O2", f"-I{include}", "-DCONTEXT" if context else f"-DSTEP_FN={function}",
+       f"-DSTEPS={steps}u", "-o", str(exe), str(driver), str(source))  # fmt: skip
+    per_step, visits = callgrind_instructions(function, exe, steps, work)
+    (work / tag).mkdir(exist_ok=True)
+    size, _ = step_text_bytes(function, source, work / tag, include)
     return per_step, size, visits
 
 
-def pipeline_section(steps: int) -> None:
-    print("\nOne pipeline: the boolean machines generated through the pipeline for machines with data")
-    print(f"{'machine':10} {'pipeline':10} {'instructions/step':>18} {'Cortex-M4 .text B':>18}  visits")
-    with tempfile.TemporaryDirectory() as folder:
-        work = Path(folder)
-        for name in ("mlca", "mlca_r"):
-            spec = load_spec(ROOT / "spec" / f"{name}.toml")
-            out = work / name / "generated"
-            for rel, text in render_data(data_ir(spec, out), TEMPLATE_DIR).items():
-                (out / rel).parent.mkdir(parents=True, exist_ok=True)
-                (out / rel).write_text(text, encoding="utf-8")
-            (work / "bool").mkdir(exist_ok=True)
-            (work / "data").mkdir(exist_ok=True)
-            rows = {
-                "boolean": pipeline_row(name, GENERATED, False, steps, work),
-                "data": pipeline_row(name, out / "c", True, steps, work),
-            }
-            assert len({r[2] for r in rows.values()}) == 1, f"{name}: the pipelines disagree on the run: {rows}"
-            for label, (per_step, size, visits) in rows.items():
-                print(f"{name:10} {label:10} {per_step:18.2f} {size:18d}  {visits}")
-            (bi, bs, _), (di, ds, _) = rows["boolean"], rows["data"]
-            print(f"{name:10} {'ratio':10} {di / bi:18.3f} {ds / bs:18.3f}  (data / boolean; target at most 1.0)")
+def table(module: str, candidates: dict[str, Candidate], steps: int, work: Path) -> dict[str, tuple[float, int, str]]:
+    rows = {label: measure(module, c, steps, work) for label, c in candidates.items()}
+    visits = {v[2] for v in rows.values()}
+    assert len(visits) == 1, f"the candidates disagree on the trajectory: {rows}"
+    print(f"{steps} steps, same trajectory for every candidate (state visits {visits.pop()})\n")
+    print(f"{'candidate':32} {'instructions/step':>18} {'Cortex-M4 .text B':>18}")
+    for label, (per_step, size, _) in rows.items():
+        print(f"{label:32} {per_step:18.2f} {size:18d}")
+    return rows
+
+
+def ratio(what: str, a: tuple[float, int, str], b: tuple[float, int, str]) -> None:
+    print(f"ratio generated / {what}: instructions {a[0] / b[0]:.3f}, .text {a[1] / b[1]:.3f}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--steps", type=int, default=1_000_000, help="steps of the fixed input sequence")
     args = parser.parse_args()
-    rows = {}
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)
-        for label, (function, source) in CANDIDATES.items():
-            per_step, visits = instructions(function, source, args.steps, work)
-            rows[label] = (per_step, text_bytes(function, source, work), visits)
-    visits = {v[2] for v in rows.values()}
-    assert len(visits) == 1, f"the candidates disagree on the trajectory: {rows}"
-    print(f"{args.steps} steps, same trajectory for every candidate (state visits {visits.pop()})\n")
-    print(f"{'candidate':30} {'instructions/step':>18} {'Cortex-M4 .text B':>18}")
-    for label, (per_step, size, _) in rows.items():
-        print(f"{label:30} {per_step:18.2f} {size:18d}")
-    gen = rows["generated mlca_step"]
-    best_ins = min(v[0] for k, v in rows.items() if k.startswith("hand"))
-    best_text = min(v[1] for k, v in rows.items() if k.startswith("hand"))
-    print(
-        f"\nratio generated / best hand-written: instructions {gen[0] / best_ins:.3f}, .text {gen[1] / best_text:.3f}"
-    )
-    print("target: both at most 1.0")
+        print("Alg. 1 (spec/mlca.toml)")
+        rows = table("mlca", CANDIDATES, args.steps, work)
+        gen = rows["generated mlca_step"]
+        hand = [v for k, v in rows.items() if k.startswith("hand")]
+        best = (min(v[0] for v in hand), min(v[1] for v in hand), "")
+        print()
+        ratio("best hand-written", gen, best)
+        ratio("the boolean pipeline's", gen, rows["boolean pipeline's mlca_step"])
+        print("\nThe repair (spec/mlca_r.toml)")
+        rows = table("mlca_r", REPAIR, args.steps, work)
+        print()
+        ratio("the boolean pipeline's", rows["generated mlca_r_step"], rows["boolean pipeline's mlca_r_step"])
+        print("target: every ratio at most 1.0")
     mlca_t_section(args.steps)
-    pipeline_section(args.steps)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Frama-C WP goals and time against the size of the spec, for the generated C of both kinds of machine.
+"""Frama-C WP goals and time against the size of the spec, for the generated C of machines with and without data.
 
 Run on demand: `.venv/bin/python bench/bench_wp.py [--quick]`. The size of a spec is its states plus its
 transitions, a `from = "*"` transition counted once per state it leaves. Families, each generated with
@@ -23,8 +23,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_check import GREEN, crossing_expanded, crossing_timed  # noqa: E402
 from mlca_verify.codegen import generate  # noqa: E402
-from mlca_verify.conform.bool_code import wp_file  # noqa: E402
-from mlca_verify.conform.data_code import WP_FLAGS  # noqa: E402
+from mlca_verify.conform.c_tools import wp_file  # noqa: E402
+from mlca_verify.conform.generated_code import WP_FLAGS  # noqa: E402
 from mlca_verify.spec import load_spec  # noqa: E402
 
 
@@ -87,7 +87,7 @@ def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -
         (out / rel).write_text(body, encoding="utf-8")
     c_file = next(out.rglob("*_fsm.c"))
     module = c_file.name.removesuffix("_fsm.c")
-    extra = (*WP_FLAGS, "-wp-skip-fct", f"{module}_monitor") if m.has_data else ()
+    extra = (*WP_FLAGS, "-wp-skip-fct", f"{module}_monitor")
     build = work / f"{name}_build"
     build.mkdir()
     start = time.monotonic()
@@ -95,8 +95,9 @@ def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -
     seconds = time.monotonic() - start
     data = outcome.data or {}
     proved, goals = data.get("proved", 0), data.get("goals", 0)
+    kind = "data" if m.variables or m.signals or m.params else "bool"
     print(
-        f"{name:<28} {'data' if m.has_data else 'bool':>4} {size:>5} {goals:>6} {proved:>6} {seconds:>8.1f}"
+        f"{name:<28} {kind:>4} {size:>5} {goals:>6} {proved:>6} {seconds:>8.1f}"
         f" {goals / size:>9.2f} {seconds / size:>9.3f}",
         flush=True,
     )

@@ -44,7 +44,7 @@ class Driving:
     state_s: list[float]  # seconds spent in each state of the machine, by state
     history: History  # (time, state, inputs, next state) of the last steps, the trace stored with a violation
     fired: list[int]  # how often each transition fired, by number (0: none fired)
-    ctx: Any = None  # a machine with data: its context
+    ctx: Any = None  # the generated machine's context
     edge: str = ""  # where the AV was the step before
     lane: int = -1
     lane_id: str = ""

@@ -8,30 +8,17 @@ SUMO ships the lane-change models LC2013, SL2015 and DK2008, and nothing named L
 from __future__ import annotations
 
 import functools
-import itertools
 import operator
 import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from mlca_verify.codegen import data_ir, machine_ir
+from mlca_verify.codegen import machine_ir
 from mlca_verify.errors import UsageError
 from mlca_verify.layout import Layout
-from mlca_verify.loading import (
-    HOLDS,
-    STATE_BITS,
-    DataCMachine,
-    DataPythonMachine,
-    PythonMachine,
-    build_c,
-    build_data_c,
-    flag_definitions,
-    import_generated,
-    load_python,
-)
-from mlca_verify.model import Machine, evaluate
+from mlca_verify.loading import CMachine, PythonMachine, build_c, flag_definitions, load_python
 from mlca_verify.spec import load_spec
 from sim_check.package_data import GENERATED, SPECS
 from sim_check.signals import SENSED
@@ -166,56 +153,28 @@ def input_values(names: tuple[str, ...]) -> Callable[[dict[str, bool]], tuple[bo
 
 @dataclass
 class Controller:
-    """A generated machine behind one interface: states are the generated enum's integers. `packed` is one step of
-    the machine and its runtime monitor, called as packed(state, *values) with the inputs' values in the order of
-    `inputs`: the state reached, with HOLDS set where every invariant holds there (bound at load to the C adapter
-    or to the Python machine, so that a step costs the loop one call). `transitions` names the spec's transitions
-    by number from 1, and `fired` says which one fires from a state with the inputs' values (absent: none), by the
-    spec's own semantics (mlca_verify.model), not the generated code's."""
+    """A generated machine behind one interface: `context()` is a new context, `advance(context, *values)` one step
+    and its runtime monitor, answered as (packed, *outputs) (see mlca_verify.loading.PythonMachine: the mode
+    reached, HOLDS where every invariant holds after the step, the transition that fired, the boolean definitions
+    `flags` as the step saw them); values are the boolean inputs `inputs`, then the signals `signals`, the order
+    `values` puts an inputs dict in. `transitions` names the transitions by number from 1. The loop reads the side
+    to move to from the output `command` (+1 left, -1 right, 0 none) at `command_at` among the outputs, or, where
+    the machine has none (Alg. 1), from the mode."""
 
     name: str
     states: tuple[str, ...]
-    inputs: tuple[str, ...]
     initial: int
-    packed: Callable[..., int]
-    transitions: tuple[str, ...] = ()
-    fired: dict[tuple[int, tuple[bool, ...]], int] = field(default_factory=dict)
-    py: PythonMachine | None = None
-
-    def __post_init__(self) -> None:
-        self.values = input_values(self.inputs)
-
-    def advance(self, state: int, inputs: dict[str, bool]) -> tuple[int, bool]:
-        """The state reached from `state` with `inputs`, and whether every invariant holds there."""
-        answer = self.packed(state, *self.values(inputs))
-        return answer & STATE_BITS, bool(answer & HOLDS)
-
-    def failing(self, state: int, inputs: dict[str, bool]) -> list[str]:
-        """The invariants failing in `state`, reached with `inputs`, where the monitor said one fails: by id from
-        the Python machine; the C monitor says only that one does."""
-        return self.py.failing(state, self.values(inputs)) if self.py else ["invariants"]
-
-
-@dataclass
-class DataController:
-    """A generated machine with data (its whole decision function) behind one interface: `context()` is a new
-    context, `advance(context, *values)` one step and its monitor, answered as (packed, *outputs) (see
-    mlca_verify.loading.DataPythonMachine); values are the boolean inputs `inputs`, then the signals `signals`.
-    `transitions` names the transitions by number from 1, `flags` the boolean definitions whose values the answer
-    holds, and `command_at` the place of the output `command` (+1 left, -1 right, 0 none) among the outputs."""
-
-    name: str
-    states: tuple[str, ...]
     inputs: tuple[str, ...]
     signals: tuple[str, ...]
     transitions: tuple[str, ...]
     flags: tuple[str, ...]
-    command_at: int
-    machine: DataPythonMachine | DataCMachine
+    command_at: int | None
+    machine: PythonMachine | CMachine
 
     def __post_init__(self) -> None:
         self.context: Callable[[], Any] = self.machine.context
         self.advance: Callable[..., tuple[Any, ...]] = self.machine.advance
+        self.values = input_values(self.inputs)
 
     def failing(self) -> list[str]:
         """The invariants that failed in the last step: by id from the Python machine; the C says only that one
@@ -223,59 +182,37 @@ class DataController:
         return list(self.machine.failing)
 
 
+# How the loop drives a machine: on the booleans sim_check.sensing derives (a need, can-wait, and a safe gap on
+# each side), or on the need and its urgency with the raw gap and speed signals, the machine deciding the rest.
+SENSED_INPUTS = ("N", "W", "L", "R")
+SIGNAL_INPUTS = ("N", "U")
+
+
 @functools.cache
-def load_controller(name: str, generated: Path = GENERATED) -> Controller | DataController:
+def load_controller(name: str, generated: Path = GENERATED) -> Controller:
     """The generated machine of an `fsm` controller, loaded (and for C, compiled) once per process."""
     code = setup_of(name).generated
     if code is None:
         raise UsageError(f"error: controller '{name}' is not a generated machine")
-    lang = code.language
-    spec = load_spec(code.spec, compare=False)
-    if spec.machine.has_data:
-        return _load_data(name, spec, lang, generated)
-    ir = machine_ir(spec, generated)
-    layout = Layout(generated, ir.module)
-    initial, names = ir.states.index(ir.initial), tuple(i.name for i in ir.inputs)
-    if lang == "py":
-        py = load_python(layout, names, f"_sim_{ir.module}_fsm")
-        return Controller(name, ir.states, names, initial, py.advance, *_fired_table(spec.machine, ir.states), py=py)
-    with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
-        c = build_c(layout, ir, Path(build), f"_{ir.module}_sim")
-    return Controller(name, ir.states, names, initial, c.advance, *_fired_table(spec.machine, ir.states))
-
-
-def _fired_table(
-    machine: Machine, states: tuple[str, ...]
-) -> tuple[tuple[str, ...], dict[tuple[int, tuple[bool, ...]], int]]:
-    """The transitions of a boolean machine with first-match semantics, and the one that fires (by number from 1)
-    from each state under each valuation of the inputs."""
-    names, table = machine.input_names, {}
-    for k, state in enumerate(states):
-        for values in itertools.product((False, True), repeat=len(names)):
-            given = dict(zip(names, values, strict=True))
-            for number, t in enumerate(machine.transitions, 1):
-                if t.applies_to(state) and evaluate(t.guard, given, state):
-                    table[(k, values)] = number
-                    break
-    return tuple(t.id for t in machine.transitions), table
-
-
-def _load_data(name: str, spec: Any, lang: str, generated: Path) -> DataController:
-    ir = data_ir(spec, generated)
+    ir = machine_ir(load_spec(code.spec, compare=False), generated)
     signals, inputs = tuple(s.name for s in ir.signals), tuple(i.name for i in ir.inputs)
     outputs = tuple(o.name for o in ir.outputs)
-    if signals != SENSED or inputs != ("N", "U") or "command" not in outputs:
+    drivable = (inputs == SENSED_INPUTS and not signals) or (
+        inputs == SIGNAL_INPUTS and signals == SENSED and "command" in outputs
+    )
+    if not drivable:
         raise UsageError(
-            f"error: controller '{name}': the closed loop drives a machine whose inputs are N, U, whose signals are "
+            f"error: controller '{name}': the closed loop drives a machine whose inputs are {', '.join(SENSED_INPUTS)} "
+            f"(no signals), or one whose inputs are {', '.join(SIGNAL_INPUTS)}, whose signals are "
             f"{', '.join(SENSED)}, in that order, and which has an output 'command'"
         )
     layout, flags = Layout(generated, ir.module), flag_definitions(ir)
-    if lang == "py":
-        machine: DataPythonMachine | DataCMachine = DataPythonMachine(
-            import_generated(layout.python, f"_sim_{ir.module}_data"), flags
-        )
+    if code.language == "py":
+        machine: PythonMachine | CMachine = load_python(layout, f"_sim_{ir.module}", flags)
     else:
         with tempfile.TemporaryDirectory(prefix="mlca-sim-") as build:  # the loaded library outlives its files
-            machine = build_data_c(layout, ir, Path(build), f"_{ir.module}_sim")
+            machine = build_c(layout, ir, Path(build), f"_{ir.module}_sim")
     transitions = tuple(tid for _, tid, _ in ir.transitions)
-    return DataController(name, ir.states, inputs, signals, transitions, flags, outputs.index("command"), machine)
+    command_at = outputs.index("command") if "command" in outputs else None
+    initial = ir.states.index(ir.initial)
+    return Controller(name, ir.states, initial, inputs, signals, transitions, flags, command_at, machine)

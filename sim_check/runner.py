@@ -35,7 +35,7 @@ from typing import Any
 from mlca_verify.loading import DEFS_SHIFT, FIRED_MASK, FIRED_SHIFT, HOLDS, STATE_BITS
 from sim_check import mobil, ssm
 from sim_check.accounting import EMERGENCY_DECEL, Driving, Ledger
-from sim_check.controllers import Controller, DataController, Setup, load_controller, setup_of
+from sim_check.controllers import Setup, load_controller, setup_of
 from sim_check.need import URGENT_M, Need, middle_goal, sumo_wish
 from sim_check.reads import Leader, Reads
 from sim_check.run_results import SIDES, AvMetrics, RunResult
@@ -66,19 +66,18 @@ class ClosedLoop:
         self.read = Reads(sumo)
         self.network = Network(sumo)
         self.setup = setup
-        ctrl = load_controller(setup.name) if setup.kind == "fsm" else None
-        self.ctrl: Controller | None = ctrl if isinstance(ctrl, Controller) else None
-        self.data: DataController | None = ctrl if isinstance(ctrl, DataController) else None
+        ctrl = self.ctrl = load_controller(setup.name) if setup.kind == "fsm" else None
         states = ctrl.states if ctrl else ()
         self.states = states
         self.transitions = ctrl.transitions if ctrl else ()
-        # a machine with data: the bits of its answer that say a gap is safe (its definitions L and R)
-        flags = self.data.flags if self.data else ()
+        # a machine deciding on the raw signals: the bits of its answer that say a gap is safe (its definitions L, R)
+        flags = ctrl.flags if ctrl else ()
         self.safe_bits = sum(1 << (DEFS_SHIFT + k) for k, name in enumerate(flags) if name in ("L", "R"))
         # the side each state of the machine moves to: +1 left, -1 right, 0 none
         self.sides = tuple(SIDES.get(s, 0) for s in states)
         deciders = {"without": self.decide_sensed, "mobil": self.decide_mobil}
-        self.decide = self.decide_data if self.data else self.decide_sensed if self.ctrl else deciders.get(setup.kind)
+        on_signals = ctrl is not None and bool(ctrl.signals)
+        self.decide = self.decide_data if on_signals else self.decide_sensed if ctrl else deciders.get(setup.kind)
         self.scenario = scenario
         self.target = scenario.target_lane
         self.sumo_need = scenario.traffic.need == "sumo"
@@ -125,7 +124,7 @@ class ClosedLoop:
             [0.0] * len(self.sides),
             deque(maxlen=TRACE_STEPS),
             [0] * (len(self.transitions) + 1),
-            ctx=self.data.context() if self.data else None,
+            ctx=ctrl.context() if ctrl else None,
         )
         self.driving.append(av)
         self.driving.sort(key=lambda d: d.id)
@@ -249,8 +248,8 @@ class ClosedLoop:
     def data_machine(self, av: Driving, t: float, need: Need, sensed: tuple[float, ...]) -> tuple[int, bool]:
         """One step of the machine with data and its runtime monitor: the side its command moves to (+1, -1 or 0),
         and whether it saw a safe gap (its L or R)."""
-        data = self.data
-        assert data is not None
+        data = self.ctrl
+        assert data is not None and data.command_at is not None
         old = av.state
         packed, *outputs = data.advance(av.ctx, need.side != 0, need.urgent, *sensed)
         av.state = packed & STATE_BITS
@@ -281,16 +280,17 @@ class ClosedLoop:
             self.command(av, t, lane + side, repeat=False)
 
     def machine(self, av: Driving, t: float, inputs: dict[str, bool]) -> int:
-        """One step of the boolean machine and its runtime monitor; the side it moves to (+1, -1 or 0)."""
+        """One step of a machine on the sensed booleans and its runtime monitor; the side its mode moves to (+1, -1
+        or 0)."""
         ctrl = self.ctrl
         assert ctrl is not None
         old = av.state
-        values = ctrl.values(inputs)
-        answer = ctrl.packed(old, *values)
-        new = av.state = answer & STATE_BITS
-        self.ledger.stepped(av, t, old, inputs, ctrl.fired.get((old, values), 0))
-        if not answer & HOLDS:
-            self.ledger.violation(av, t, ctrl.failing(new, inputs))
+        packed, *_ = ctrl.advance(av.ctx, *ctrl.values(inputs))
+        new: int = packed & STATE_BITS
+        av.state = new
+        self.ledger.stepped(av, t, old, inputs, max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1))
+        if not packed & HOLDS:
+            self.ledger.violation(av, t, ctrl.failing())
         return self.sides[new]
 
     def move(

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from mlca_verify.codegen import data_ir
+from mlca_verify.codegen import machine_ir
 from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.certified import Proved, Untranslatable, assumed_text, certify, parse, ranges
 from mlca_verify.codegen.render import render_template
-from mlca_verify.conform.bool_code import wp_file
-from mlca_verify.conform.data_code import WP_FLAGS
+from mlca_verify.conform.c_tools import wp_file
+from mlca_verify.conform.generated_code import WP_FLAGS
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 
@@ -76,14 +76,14 @@ def test_wp_needs_the_certificate(tmp_path: Path) -> None:
     """With the engine's certificate WP proves the deferral on the step; with a weaker one (the timer and the
     observer no longer related) it cannot: the proof rests on the certificate, not on the invariant alone."""
     spec = load_spec(ROOT / "spec" / "mlca_t.toml", compare=False)
-    ir = data_ir(spec, ROOT / "generated")
+    ir = machine_ir(spec, ROOT / "generated")
 
     def proved_with(certificate: str) -> bool:
         stated, _ = certify(MACHINE, LOWERING, [Proved("deferral", certificate)])
         source = tmp_path / "mlca_t_certified.c"
         source.write_text(
             render_template(
-                "data_certified.c.j2",
+                "certified.c.j2",
                 m=ir,
                 source=str(ROOT / "generated" / "c" / "mlca_t_fsm.c"),
                 certified=stated,

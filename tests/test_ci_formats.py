@@ -115,21 +115,22 @@ def test_emitted_tests_fail_on_the_defect_and_pass_on_the_repair(
     run = subprocess.run(pytest_cmd, capture_output=True, text=True, check=False, cwd=tmp_path)
     assert f"{len(expected)} failed" in run.stdout, run.stdout
     c_dir = generated / "c"
-    for test in sorted(out.glob("*.c")):
+    build = ["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion", "-ffp-contract=off"]
+    for test in sorted(out.glob("*.c")):  # each includes the generated .c, whose definitions it reads
         exe = tmp_path / test.stem
-        build = ["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wconversion", f"-I{c_dir}"]
-        subprocess.run([*build, "-o", str(exe), str(test), str(c_dir / f"{module}_fsm.c")], check=True)
+        subprocess.run([*build, f"-I{c_dir}", "-o", str(exe), str(test)], check=True)
         assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == 1, test.name
     if repaired is None:
         return
     env = dict(os.environ, MLCA_FSM=str(generated / "python" / "mlca_r_fsm.py"))
     run = subprocess.run(pytest_cmd, capture_output=True, text=True, check=False, cwd=tmp_path, env=env)
     assert f"{len(expected)} passed" in run.stdout, run.stdout
+    # the C replays on the repair through another -I: its code generated under the buggy machine's name
+    renamed = tmp_path / "renamed" / "mlca.toml"
+    renamed.parent.mkdir()
+    renamed.write_text(Path(repaired).read_text().replace('name = "MLCA_R"', 'name = "MLCA"', 1))
+    _generate([str(renamed)], tmp_path / "renamed" / "generated")
     for test in sorted(out.glob("*.c")):
         exe = tmp_path / f"{test.stem}_r"
-        defines = ['-DFSM_HEADER="mlca_r_fsm.h"', "-DFSM_PREFIX=mlca_r_", "-DFSM_MACRO=MLCA_R_"]
-        subprocess.run(
-            ["gcc", "-std=c99", f"-I{c_dir}", *defines, "-o", str(exe), str(test), str(c_dir / "mlca_r_fsm.c")],
-            check=True,
-        )
+        subprocess.run([*build, f"-I{tmp_path / 'renamed' / 'generated' / 'c'}", "-o", str(exe), str(test)], check=True)
         assert subprocess.run([str(exe)], check=False).returncode == 0, test.name

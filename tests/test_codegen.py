@@ -63,7 +63,7 @@ def test_c_calls_no_library_and_nothing_recursive(spec: str, tmp_path: Path) -> 
     text = source.read_text()
     assert not re.search(r"\b(malloc|calloc|realloc|free|alloca)\b", text)
     assert re.findall(r"#include [<\"]([^>\"]+)", text) == [f"{module}_fsm.h"]
-    for name in (f"{module}_step", f"{module}_state_valid", f"{module}_invariants_hold"):
+    for name in (f"{module}_step", f"{module}_init", f"{module}_monitor"):
         body = text.split(f"{name}(", 1)[1]
         assert f"{name}(" not in body.split("\n}\n", 1)[0], f"{name} calls itself"
     header = (GENERATED / "c" / f"{module}_fsm.h").read_text()
@@ -75,13 +75,19 @@ def test_python_api(tmp_path: Path) -> None:
     from mlca_verify.layout import Layout
     from mlca_verify.loading import load_python
 
-    mod = load_python(Layout(GENERATED, "mlca"), ("N", "W", "L", "R"), "_test_mlca_fsm").module
+    mod = load_python(Layout(GENERATED, "mlca"), "_test_mlca_fsm").module
     moving = mod.Inputs(N=True, W=False, L=True, R=False)
-    assert mod.step(mod.State.IDLE, moving) is mod.State.MOVING_LEFT
-    assert mod.step(99, moving) is mod.INITIAL
-    assert mod.check_invariants(moving, mod.State.MOVING_LEFT) == []
-    assert mod.check_invariants(mod.Inputs(N=False, W=False, L=False, R=False), mod.State.WAITING) == ["A2"]
-    assert mod.check_invariants(moving, 7) == ["state-range"]
+    ctx = mod.Context()
+    assert ctx.mode is mod.State.IDLE and list(vars(ctx)) == ["mode"]  # the context of Alg. 1 is its mode alone
+    out = mod.step(ctx, moving)
+    assert ctx.mode == mod.State.MOVING_LEFT and vars(out) == {}
+    before, ctx.mode = mod.Context(mode=ctx.mode), 99
+    mod.step(ctx, moving)
+    assert ctx.mode == mod.FALLBACK == mod.INITIAL  # a mode that names no state restarts in the fallback one
+    assert mod.monitor(before, mod.Context(mode=mod.State.MOVING_LEFT), moving, mod.DEFAULT_PARAMS, out) == []
+    idle = mod.Inputs(N=False, W=False, L=False, R=False)
+    assert mod.monitor(before, mod.Context(mode=mod.State.WAITING), idle, mod.DEFAULT_PARAMS, out) == ["A2"]
+    assert mod.monitor(before, mod.Context(mode=7), moving, mod.DEFAULT_PARAMS, out) == ["A1"]
     with pytest.raises(Exception, match="cannot assign"):
         moving.N = False
 
@@ -103,8 +109,8 @@ def test_template_edit_is_drift(tmp_path: Path) -> None:
     shutil.copytree(TEMPLATE_DIR, templates)
     py = templates / "python_fsm.py.j2"
     text = py.read_text()
-    assert "out of range: to the fallback state" in text
-    py.write_text(text.replace("out of range: to the fallback state", "out of range", 1))
+    assert "otherwise: the mode is kept" in text
+    py.write_text(text.replace("otherwise: the mode is kept", "otherwise: stay", 1))
     files = generate(load_spec("spec/mlca.toml", compare=False), GENERATED, templates)
     assert [d.path for d in drift(files, GENERATED) if d.path in files] == ["python/mlca_fsm.py"]
 
@@ -121,7 +127,7 @@ def test_spec_with_gaps_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture
     spec = tmp_path / "gappy.toml"
     spec.write_text(text)
     assert main(["gen", str(spec), "--out", str(tmp_path / "out")]) == 2
-    assert "has gaps" in capsys.readouterr().err
+    assert "may reach a step with no transition enabled" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 
 

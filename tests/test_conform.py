@@ -17,7 +17,8 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
 from mlca_verify.conform import conform
-from mlca_verify.conform.bool_code import Subject, cppcheck, external_calls, frama_c, library_calls
+from mlca_verify.conform.c_tools import cppcheck_file, external_calls, library_calls
+from mlca_verify.conform.generated_code import Subject, frama_c
 from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.layout import Layout
 from mlca_verify.logic import check_all
@@ -54,38 +55,45 @@ def test_shipped_specs_pass_every_check(tmp_path: Path) -> None:
         ]
         assert all(c["ok"] for c in checks.values()), spec
         wp = checks["frama-c-wp"]["data"]
-        # one goal per behaviour (the states told apart by an if chain, not split per switch case)
+        # one goal per behaviour of each mode's own function (the modes told apart by an if chain)
         assert wp["proved"] == wp["goals"] > 80
         names = {g["goal"] for g in wp["goal_list"]}
         module = Path(spec["path"]).stem
-        assert {f"typed_{module}_step_IDLE_1_reset_ensures", f"typed_{module}_step_out_of_range_ensures"} <= names
-        assert not any("_part" in n and "_step_" in n and "ensures" in n for n in names), "per-case split is back"
-        assert checks["exhaustive"]["data"]["cases"] == (4 + 3) * 16
-        assert 0 < checks["cortex-m4"]["data"]["step_text"] <= 128
+        assert {f"typed_{module}_to_IDLE_IDLE_2_idle_wait_ensures", f"typed_{module}_restart_ensures"} <= names
+        assert not any("_part" in n and "_to_" in n and "ensures" in n for n in names), "per-case split is back"
+        machine = load_spec(spec["path"], compare=False).machine
+        assert wp["certified"]["stated"] == [i.id for i in machine.invariants if i.expect == "holds"]
+        assert checks["exhaustive"]["data"] == {"steps": 4 * 16, "restarts": 16}
         assert checks["cortex-m4"]["data"]["calls"] == []  # the README: no call out of the object
+        assert checks["cortex-m4"]["data"]["stack"][f"{module}_step"] == 0
 
 
-def _subject(c_file: Path, build: Path) -> Subject:
-    """A subject whose C source is `c_file` (with the header beside it, or the generated one)."""
+def _subject(c_text: str, build: Path) -> Subject:
+    """A subject of Alg. 1 whose C source is `c_text`, the generated header and Python beside it."""
     spec = load_spec(ROOT / "spec/mlca.toml", compare=False)
     layout = Layout(build / "generated", "mlca")
     layout.c_source.parent.mkdir(parents=True)
-    shutil.copy(c_file, layout.c_source)
-    header = c_file.with_name("mlca_fsm.h")
-    shutil.copy(header if header.is_file() else ROOT / "generated" / "c" / "mlca_fsm.h", layout.c_header)
-    return Subject(spec, machine_ir(spec, ROOT / "generated"), layout, build)
+    layout.python.parent.mkdir(parents=True)
+    layout.c_source.write_text(c_text, encoding="utf-8")
+    shutil.copy(ROOT / "generated" / "c" / "mlca_fsm.h", layout.c_header)
+    shutil.copy(ROOT / "generated" / "python" / "mlca_fsm.py", layout.python)
+    return Subject(spec.machine, machine_ir(spec, ROOT / "generated"), layout, build, sequences=100)
 
 
 @pytest.mark.slow
 def test_hand_broken_copy_fails_the_proof(tmp_path: Path) -> None:
-    outcome = frama_c(_subject(FIXTURES / "broken" / "mlca_fsm.c", tmp_path))
+    """IDLE's third branch (idle_left) edited to move right: WP finds the behaviour it breaks."""
+    text = (ROOT / "generated" / "c" / "mlca_fsm.c").read_text()
+    broken = text.replace("next = MLCA_MOVING_LEFT;", "next = MLCA_MOVING_RIGHT;", 1)
+    assert broken != text
+    outcome = frama_c(_subject(broken, tmp_path))
     assert not outcome.ok
     assert outcome.data["proved"] < outcome.data["goals"]
     assert any("IDLE_3_idle_left" in goal for goal in outcome.data["unproved"]), outcome.data["unproved"]
 
 
 def test_cppcheck_runs_its_misra_addon(tmp_path: Path) -> None:
-    outcome = cppcheck(_subject(FIXTURES / "misra_violation.c", tmp_path))
+    outcome = cppcheck_file(FIXTURES / "misra_violation.c", tmp_path)
     assert not outcome.ok
     assert any("misra-c2012-15.1" in f for f in outcome.data["findings"]), outcome.data["findings"]
 
@@ -101,13 +109,13 @@ def _conform_with_templates(templates: Path, tmp_path: Path, checks: list[str]) 
 @pytest.mark.parametrize(
     ("template", "old", "new", "caught_by"),
     [
-        ("c_fsm.c.j2", "    next = {{ M }}_{{ b.target }};\n{% endif %}\n{% endfor %}\n{% if closed %}",
-         "    next = {{ M }}_{{ b.target if not loop.last else m.initial }};\n{% endif %}\n{% endfor %}\n{% if closed %}",
+        ("c_fsm.c.j2", "        next = {{ M }}_{{ b.target }};\n{% endif %}\n{% endfor %}\n{% if case.code and not case.closes %}",
+         "        next = {{ M }}_{{ b.target if not loop.last else m.initial }};\n{% endif %}\n{% endfor %}\n{% if case.code and not case.closes %}",
          "exhaustive"),
-        ("python_fsm.py.j2", "            return State.{{ b.target }}", "            return State.{{ case.state }}", "exhaustive"),
-        ("c_fsm.c.j2", "next = {{ M }}_FALLBACK;", "next = {{ M }}_{{ m.states[-1] }};", "exhaustive"),
+        ("python_fsm.py.j2", "nxt.mode = _TARGETS.get(fired, c.mode)", "nxt.mode = c.mode", "exhaustive"),
+        ("c_fsm.c.j2", "    c->mode = {{ M }}_FALLBACK;", "    c->mode = {{ M }}_{{ m.states[-1] }};", "exhaustive"),
     ],
-    ids=["C: last branch of each state to the initial state", "Python: every branch stays", "C: out-of-range to the wrong state"],
+    ids=["C: last branch of each mode to the initial mode", "Python: every branch stays", "C: out-of-range to the wrong mode"],
 )  # fmt: skip
 def test_template_bug_is_caught_by_conform(template: str, old: str, new: str, caught_by: str, tmp_path: Path) -> None:
     templates = tmp_path / "codegen"
@@ -125,10 +133,12 @@ def test_template_bug_in_c_fails_the_proof_too(tmp_path: Path) -> None:
     templates = tmp_path / "codegen"
     shutil.copytree(TEMPLATE_DIR, templates)
     path = templates / "c_fsm.c.j2"
-    path.write_text(path.read_text().replace("next = {{ M }}_FALLBACK;", "next = {{ M }}_{{ m.states[-1] }};"))
+    path.write_text(
+        path.read_text().replace("    c->mode = {{ M }}_FALLBACK;", "    c->mode = {{ M }}_{{ m.states[-1] }};")
+    )
     outcomes = _conform_with_templates(templates, tmp_path, ["frama-c-wp"])
     assert not outcomes["frama-c-wp"].ok
-    assert any("out_of_range" in g for g in outcomes["frama-c-wp"].data["unproved"])
+    assert any("restart" in g for g in outcomes["frama-c-wp"].data["unproved"]), outcomes["frama-c-wp"].data
 
 
 def _random_spec(machine: Machine) -> LoadedSpec:
@@ -176,7 +186,9 @@ def test_hand_edit_of_generated_code_makes_conform_exit_1(tmp_path: Path, capsys
     out = tmp_path / "generated"
     shutil.copytree(ROOT / "generated", out)
     c_file = out / "c" / "mlca_fsm.c"
-    c_file.write_text(c_file.read_text().replace("next = MLCA_MOVING_LEFT;", "next = MLCA_MOVING_RIGHT;", 1))
+    c_file.write_text(
+        c_file.read_text().replace("next = MLCA_MOVING_LEFT;", "next = MLCA_MOVING_RIGHT;", 1)
+    )  # idle_left
     shutil.copytree(ROOT / "spec", tmp_path / "spec")
     spec = str(tmp_path / "spec" / "mlca.toml")
     assert main(["conform", spec, "--generated", str(out), "--only", "compile,exhaustive"]) == 1

@@ -5,6 +5,7 @@ and strings, and the embedding examples build for the host and the Cortex-M4."""
 from __future__ import annotations
 
 import ast
+import itertools
 import math
 import os
 import random
@@ -16,22 +17,23 @@ from pathlib import Path
 import pytest
 
 from mlca_verify.cli import main
-from mlca_verify.codegen import data_ir, generate, write
+from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.conform import conform
-from mlca_verify.conform.bool_code import WP
-from mlca_verify.conform.data_code import WP_FLAGS
+from mlca_verify.conform.c_tools import WP
+from mlca_verify.conform.generated_code import WP_FLAGS
 from mlca_verify.layout import Layout
 from mlca_verify.loading import (
     FIRED_MASK,
     FIRED_SHIFT,
-    DataPythonMachine,
-    build_data_c,
+    PythonMachine,
+    build_c,
     flag_definitions,
     import_generated,
 )
 from mlca_verify.spec import load_spec
 from mlca_verify.tools import C_FLAGS
 from tests.conftest import ROOT
+from tests.test_random_bool_findings import SAME_END
 
 GENERATED = ROOT / "generated"
 SPEC = ROOT / "spec" / "mlca_t.toml"
@@ -73,11 +75,23 @@ def test_generated_python_defers_then_moves_and_fails_safe_on_nan() -> None:
     assert py.State(ctx.mode).name == "IDLE" and out.command == 0  # type: ignore[attr-defined]
 
 
-def test_boolean_machines_keep_their_generated_api() -> None:
+def test_a_boolean_machine_gets_the_one_api_with_its_enum_and_inputs_unchanged() -> None:
+    """The repair, a machine without data, goes through the one pipeline: a context that is its mode alone,
+    empty params and outputs, the step and the monitor over pointers; the enum, its constants and the inputs
+    struct are the ones its callers used before (the README's note on what changed)."""
     spec = load_spec(ROOT / "spec" / "mlca_r.toml", compare=False)
-    for rel, text in generate(spec, GENERATED).items():
+    files = generate(spec, GENERATED)
+    for rel, text in files.items():
         assert (GENERATED / rel).read_text() == text
-        assert "_ctx_t" not in text and "Context" not in text
+    header = files["c/mlca_r_fsm.h"]
+    for kept in ("MLCA_R_IDLE = 0,", "#define MLCA_R_INITIAL MLCA_R_IDLE", "    bool N; /*", "} mlca_r_inputs_t;"):
+        assert kept in header, kept
+    start = header.index("typedef struct {\n    mlca_r_state_t mode;")
+    assert header[start : header.index("} mlca_r_ctx_t;")].count(";") == 1  # the mode, and nothing else
+    assert (
+        "void mlca_r_step(mlca_r_ctx_t *c, const mlca_r_inputs_t *i, const mlca_r_params_t *p, mlca_r_outputs_t *o);"
+        in header
+    )
 
 
 @pytest.mark.slow
@@ -393,11 +407,11 @@ def test_the_c_adapter_of_a_direct_step_reports_what_the_python_one_does(tmp_pat
     spec = load_spec(CONVEYOR)
     out = tmp_path / "generated"
     write(generate(spec, out), out)
-    ir = data_ir(spec, out)
+    ir = machine_ir(spec, out)
     layout = Layout(out, ir.module)
     flags = flag_definitions(ir)
-    py = DataPythonMachine(import_generated(layout.python, "_test_conveyor_direct"), flags)
-    c = build_data_c(layout, ir, tmp_path, "_test_conveyor_direct_c")
+    py = PythonMachine(import_generated(layout.python, "_test_conveyor_direct"), flags)
+    c = build_c(layout, ir, tmp_path, "_test_conveyor_direct_c")
     rng = random.Random(7)
     samples = [0.0, 0.1, 0.39, 0.4, 0.41, 2.5, 10.0, 11.0, -1.0, math.nan]
     py_ctx, c_ctx = py.context(), c.context()
@@ -408,3 +422,27 @@ def test_the_c_adapter_of_a_direct_step_reports_what_the_python_one_does(tmp_pat
         assert py_answer == c_answer, values
         fired.add((py_answer[0] >> FIRED_SHIFT) & FIRED_MASK)
     assert fired == {1, 2, 3, 4, 5, 6}  # none (1: numbered 0, plus one) and each of the five transitions
+
+
+def test_a_branch_the_step_leaves_out_is_still_reported_as_fired(tmp_path: Path) -> None:
+    """`hold` and `back-on-a` go where their chains end anyway, so the C step leaves them out (cppcheck's
+    duplicateBranch); the closed loop still counts them: the C adapter reports them as the Python does."""
+    spec_path = tmp_path / "b.toml"
+    spec_path.write_text(SAME_END, encoding="utf-8")  # `a and a`, `not (b or b)`: what tidy folds too
+    spec, out = load_spec(spec_path), tmp_path / "generated"
+    write(generate(spec, out), out)
+    assert "/* hold:" not in generate(spec, out)["c/b_fsm.c"].split("b_to_S0(")[-1].split("\n}\n")[0]
+    ir = machine_ir(spec, out)
+    layout = Layout(out, ir.module)
+    py = PythonMachine(import_generated(layout.python, "_test_b_dropped"), ())
+    c = build_c(layout, ir, tmp_path, "_test_b_dropped_c")
+    fired = set()
+    for mode in (0, 1):
+        for a, b in itertools.product((False, True), repeat=2):
+            py_ctx, c_ctx = py.context(), c.context()
+            py_ctx.mode = mode
+            c_ctx[0:4] = mode.to_bytes(4, sys.byteorder)
+            answer = py.advance(py_ctx, a, b)
+            assert answer == c.advance(c_ctx, a, b), (mode, a, b)
+            fired.add(((answer[0] >> FIRED_SHIFT) & FIRED_MASK) - 1)
+    assert fired == {0, 1, 2, 3, 4}  # none, go, hold, back-on-a and back

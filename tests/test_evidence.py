@@ -321,7 +321,7 @@ def test_data_machine_bundle_packages_its_generated_code(data_bundle: Path) -> N
     assert {a["kind"] for a in doc["artifacts"]} == {"python", "c-header", "c-source"}
     rows = {r["element"]: r for r in doc["traceability"]}
     assert rows["transition wait_left"]["code"] and "conform: frama-c-wp" in rows["transition wait_left"]["tests"]
-    assert {"templates/data_c.c.j2", "templates/data_acsl.j2"} <= {p["path"] for p in doc["inputs"]}
+    assert {"templates/c_fsm.c.j2", "templates/acsl.j2"} <= {p["path"] for p in doc["inputs"]}
     assert doc["closed_loop"]["status"] == "undeveloped"
     nodes = {n["id"]: n for n in doc["argument"]}
     assert nodes["G4"]["ok"] is True and nodes["G5"]["ok"] is True and nodes["G6"]["ok"] is True

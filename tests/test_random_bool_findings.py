@@ -76,8 +76,8 @@ expr = "state == S0"
 @pytest.mark.slow
 def test_an_invariant_the_engine_shows_violated_is_no_contract_of_the_step(tmp_path: Path) -> None:
     c, py, outcomes = _generated(_spec(tmp_path, TOGGLE))
-    assert "behavior keeps_follows:" in c and "keeps_stays_low" not in c
-    assert "# stays-low: state == S0, claimed by the spec but not proved" in py
+    assert "stays-low" in c and "stays-low" in py  # monitored in both languages
+    assert outcomes["frama-c-wp"].data["certified"]["stated"] == ["follows"]  # the one proved: a contract
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items() if not o.ok}
     assert main(["check", str(tmp_path / "b.toml"), "--quiet"]) == 1  # the claim is the spec's fault, told by check
 
@@ -129,14 +129,16 @@ def test_a_guard_that_always_holds_ends_the_chain_and_one_that_never_does_is_lef
     c, py, outcomes = _generated(_spec(tmp_path, CONSTANT))
     assert "(true)" not in c and "(false" not in c
     # S0: the guard that never holds is left out; `always` is the chain's else, with no otherwise after it
-    s0 = c[c.index("if (s == B_S0) {") : c.index("} else if (s == B_S1) {")]
-    assert "/* on-a: not not a */" in s0 and "} else { /* always: true <-> true, always where reached */" in s0
-    assert "never" not in s0 and "after-always" not in s0 and "otherwise" not in s0
-    # S1: `always` is its first branch, so the state's code is that one assignment
-    s1 = c[c.index("} else if (s == B_S1) {") : c.index("} else if (s == B_S2) {")]
-    assert "next = B_S2; /* always: true <-> true, always where reached */" in s1 and s1.count(" if ") == 1
-    assert "        return State.S2  # always where reached\n" in py
-    assert "never" in c.split("b_state_t b_step(")[0]  # the contracts still state every transition
+    s0 = _function(c, "b_to_S0")
+    assert "if (i->a) { /* on-a: not not a */" in s0
+    assert "} else { /* always: true <-> true: enabled whenever the ones before it are not */" in s0
+    assert "/* never: never taken in S0: its guard is false as written */" in s0 and s0.count("if (") == 1
+    assert "after-always" not in s0 and "otherwise" not in s0
+    # S1: `always` is its first branch, so the mode's code is that one assignment
+    s1 = _function(c, "b_to_S1")
+    assert "next = B_S2; /* always: true <-> true: always enabled */" in s1 and "if (" not in s1
+    assert "fired = 3  # always: true <-> true: always enabled" in py
+    assert "behavior S0__1_never:" in c  # the contracts still state every transition
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items() if not o.ok}
 
 
@@ -281,14 +283,21 @@ when = "a"
 def test_a_branch_that_goes_where_the_chain_ends_is_left_out_and_a_or_a_is_a(tmp_path: Path) -> None:
     """`a and a` was written `in.a && in.a` (cppcheck: duplicateExpression); a last branch that goes where its
     chain ends anyway, by the `otherwise` or by a branch that always fires, was written too (duplicateBranch); and
-    a step whose code then tests no input must say so (`(void)in;`), or -Werror fails on the unused parameter."""
+    a step whose code then tests no input must still build under -Werror."""
     c, _, outcomes = _generated(_spec(tmp_path / "same", SAME_END))
-    step = c[c.index("b_state_t b_step(") :]
-    assert "in.a && in.a" not in step and "in.b || in.b" not in step
-    assert "/* hold:" not in step and "/* back-on-a:" not in step  # each goes where its chain ends
-    assert "if (in.a) { /* go: a and a */" in step and "} else { /* otherwise: stay */" in step
-    assert "next = B_S0; /* back: true, always where reached */" in step
+    s0, s1 = _function(c, "b_to_S0"), _function(c, "b_to_S1")
+    assert "i->a && i->a" not in c and "i->b || i->b" not in c
+    assert "/* hold:" not in s0 and "/* back-on-a:" not in s1  # each goes where its chain ends
+    assert "if (i->a) { /* go: a and a */" in s0 and "} else { /* otherwise: the mode is kept */" in s0
+    assert "next = B_S0; /* back: true: always enabled */" in s1
+    assert "behavior S0__2_hold:" in c and "behavior S1__1_back_on_a:" in c  # the contracts keep them
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items() if not o.ok}
     c, _, outcomes = _generated(_spec(tmp_path / "none", NO_INPUT_READ))
-    assert "(void)in; /* no transition reads an input */" in c and "stay-on-a" not in c.split("b_step(")[-1]
+    assert "stay-on-a" not in _function(c, "b_to_S1")
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items() if not o.ok}
+
+
+def _function(c: str, name: str) -> str:
+    """The C function `name`, from its header to its closing brace."""
+    start = c.index(f" {name}(")
+    return c[start : c.index("\n}\n", start)]

@@ -7,7 +7,6 @@ transition's update, the shared abs helper, a mode's `otherwise` and a mode no r
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 from fractions import Fraction
 from pathlib import Path
 
@@ -354,30 +353,6 @@ def test_wp_proves_a_step_whose_range_only_the_runs_keep(tmp_path: Path) -> None
     assert wp.data["certified"]["in_reach"] == ["c"] and "leaves it to the engine's range:c" in wp.detail
     source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
     assert "@ requires in_reach: 0 <= c->c <= 2" in source
-
-
-def test_a_machine_without_invariants_gets_a_monitor_call_on_a_state() -> None:
-    from mlca_verify.model import Input, Machine, Transition
-    from mlca_verify.testgen.suite import generate
-    from tests.strategies import HERE
-
-    machine = Machine(
-        name="B",
-        initial="S0",
-        states=("S0",),
-        inputs=(Input("go", "doc", "cite", HERE),),
-        transitions=(Transition("t", None, "S0", Var("go"), "cite", HERE),),
-        semantics="first-match",
-        otherwise="stay",
-        cite="cite",
-    )
-    # the state check runs on S0 where a run's step ends in it (or by a call of its own), and on a mode that
-    # names no state by a call; with its transition or without any
-    for m in (machine, replace(machine, transitions=())):
-        suite = generate(m)
-        modes = {int(c.snapshot.after["mode"]) for c in suite.monitor}
-        ended = {e.state for case in suite.cases for e in case.expected}
-        assert 1 in modes and ended | {m.states[k] for k in modes if k < 1} == {"S0"}
 
 
 def test_the_ranges_one_step_keeps_from_every_context_in_range(tmp_path: Path) -> None:

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from mlca_verify.codegen import data_ir, generate, write
-from mlca_verify.codegen.data_ir import closing
+from mlca_verify.codegen import generate, machine_ir, write
+from mlca_verify.codegen.ir import closing
 from mlca_verify.codegen.rounded import parts_of, rounded_parts
 from mlca_verify.conform import conform
-from mlca_verify.conform.data_code import binary64_goals
+from mlca_verify.conform.generated_code import binary64_goals
 from mlca_verify.model import name_types, prevs_of, show
 from mlca_verify.spec import load_spec
 from mlca_verify.spec.expr_parser import parse_expr
@@ -64,7 +64,7 @@ def test_the_generated_step_reads_each_part_through_its_function(tmp_path: Path)
     assert "ra_lb64_0(c, i, p)" in logic
     assert not re.search(r"c\.x\s*[<>=]|\+ p\.step", logic), logic
     clauses = re.findall(r"@ (check )?ensures binary64: (.*)", source)
-    assert len(clauses) == len(binary64_goals(data_ir(spec, tmp_path))) == 7  # conform lists each one
+    assert len(clauses) == len(binary64_goals(machine_ir(spec, tmp_path))) == 7  # conform lists each one
     # a clause that callers assume links a boolean; one over doubles is only checked, never assumed: an ACSL
     # equality between doubles among a goal's hypotheses makes z3 bit-blast
     assert all(check or text.startswith("((\\result != 0) <==>") for check, text in clauses), clauses
@@ -99,7 +99,7 @@ def test_wp_proves_the_step_of_a_machine_with_real_variables(tmp_path: Path, fix
     assert all(o.ok for o in outcomes), [o.detail for o in outcomes if not o.ok]
     wp = next(o for o in outcomes if o.name == "frama-c-wp").data
     assert wp["proved"] == wp["goals"] > 30
-    assert wp["binary64"] == binary64_goals(data_ir(spec, tmp_path))
+    assert wp["binary64"] == binary64_goals(machine_ir(spec, tmp_path))
     assert any("_b64_" in g for g in wp["binary64"])
     certified = wp["certified"]  # the invariants over ints, proved on the step with their certificates
     assert certified["proved"] == certified["goals"] and "n-range" in certified["stated"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import sys
 import sysconfig
 from pathlib import Path
 
@@ -12,13 +13,16 @@ import pytest
 
 from mlca_verify.errors import ToolError
 from mlca_verify.loading import python_headers
+from mlca_verify.model import evaluate
+from mlca_verify.spec import load_spec
 from sim_check.controllers import load_controller, setup_of
 from sim_check.reads import Reads
 from sim_check.run_results import Violation
 from sim_check.runner import TRACE_STEPS, ClosedLoop, run_once, run_plain, sumo_args
 from sim_check.scenario import build, load_scenario
 from sim_check.sensing import Network
-from tests.sim_helpers import SHORT
+from tests.conftest import ROOT
+from tests.sim_helpers import SHORT, in_mode
 
 
 @pytest.mark.slow
@@ -92,22 +96,23 @@ def test_the_loops_bound_reads_give_what_libsumos_methods_give(tmp_path: Path) -
 
 
 def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
+    """The ledger keeps the last TRACE_STEPS steps of each AV; the steps are the spec's own (first match, by
+    mlca_verify.model.evaluate), not the generated code's."""
     import libsumo  # not started: the machine's steps read nothing from SUMO
 
     loop = ClosedLoop(libsumo, setup_of("mlca-py"), load_scenario(SHORT), ("av0",))
-    ctrl = load_controller("mlca-py")
+    machine = load_spec(ROOT / "spec" / "mlca.toml", compare=False).machine
     av = loop.enter("av0", 0.0)
-    state = ctrl.initial
+    state = machine.initial
     inputs = [{"N": k % 3 != 0, "W": k % 2 == 0, "L": k % 5 == 1, "R": k % 7 == 2} for k in range(TRACE_STEPS + 5)]
     expected = []
     for k, given in enumerate(inputs):
         loop.machine(av, k / 10, given)
-        after, _ = ctrl.advance(state, given)
-        expected.append(
-            {"t": round(k / 10, 3), "state": ctrl.states[state], "inputs": given, "next": ctrl.states[after]}
-        )
+        enabled = [t for t in machine.outgoing(state) if evaluate(t.guard, given, state)]
+        after = enabled[0].target if enabled else state
+        expected.append({"t": round(k / 10, 3), "state": state, "inputs": given, "next": after})
         state = after
-    assert av.state == state and loop.ledger.violations == []  # the shipped machine keeps its invariants
+    assert machine.states[av.state] == state and loop.ledger.violations == []  # the machine keeps its invariants
     loop.ledger.violation(av, 2.4, ["I9"])
     (stored,) = loop.ledger.violations
     assert stored == Violation("av0", 2.4, ["I9"], expected[-TRACE_STEPS:])
@@ -117,25 +122,25 @@ def test_a_monitor_violation_is_stored_with_the_steps_that_led_to_it() -> None:
 @pytest.mark.parametrize("machine", ["mlca", "mlca_r"])
 def test_the_c_controllers_one_call_a_step_agrees_with_the_python_machine(machine: str) -> None:
     c, py = load_controller(f"{machine}-c"), load_controller(f"{machine}-py")
-    assert c.inputs == py.inputs and c.states == py.states
-    for state in range(len(c.states)):
+    assert (c.inputs, c.states, c.transitions, c.flags) == (py.inputs, py.states, py.transitions, py.flags)
+    for state in range(len(c.states) + 2):  # two modes that name no state too
         for values in itertools.product((False, True), repeat=len(c.inputs)):
-            inputs = dict(zip(c.inputs, values, strict=True))
-            assert c.packed(state, *values) == py.packed(state, *values), (state, inputs)
-            assert c.advance(state, inputs) == py.advance(state, inputs), (state, inputs)
+            c_ctx, py_ctx = in_mode(c, state), in_mode(py, state)
+            assert c.advance(c_ctx, *values) == py.advance(py_ctx, *values), (state, values)
+            assert bytes(c_ctx[0:4]) == int(py_ctx.mode).to_bytes(4, sys.byteorder)
 
 
 def test_the_c_controllers_step_checks_its_arguments_and_answers_as_the_python_machine() -> None:
     c, py = load_controller("mlca-c"), load_controller("mlca-py")
     n = len(c.inputs)
-    with pytest.raises(TypeError, match=f"advance takes the state and {n} inputs"):
-        c.packed(0, True)
-    with pytest.raises(TypeError):
-        c.packed("IDLE", *[True] * n)
+    with pytest.raises(TypeError, match=f"advance takes the context and {n} inputs"):
+        c.advance(c.context(), True)
+    with pytest.raises(TypeError, match="a context made by context"):
+        c.advance(bytearray(1), *[True] * n)
     for state in range(len(c.states)):
         for values in itertools.product((0, 1), repeat=n):  # any truthy value is true
-            answer = py.packed(state, *map(bool, values))
-            assert c.packed(state, *values) == c.packed(state, *map(bool, values)) == answer, (state, values)
+            answer = py.advance(in_mode(py, state), *map(bool, values))
+            assert c.advance(in_mode(c, state), *values) == c.advance(in_mode(c, state), *map(bool, values)) == answer
 
 
 def test_building_the_c_controller_without_pythons_headers_says_what_to_install(

@@ -4,230 +4,346 @@
  */
 #include "mlca_fsm.h"
 
-/*@ predicate mlca_valid(mlca_state_t s) =
-  @   s == MLCA_IDLE || s == MLCA_WAITING || s == MLCA_MOVING_LEFT || s == MLCA_MOVING_RIGHT;
+const mlca_params_t mlca_DEFAULT_PARAMS = {
+    0
+};
+
+/* Helpers that behave as the generated Python's: min and max keep the running result unless the next argument
+ * is smaller (larger); division is IEEE 754's. */
+
+/* The spec in ACSL, for the contracts below: each definition and shared rule as a logic function (a boolean term
+ * when boolean, so that it may also be the condition of a term) of the context, inputs and params as values; each
+ * transition's condition; the transition that fires; and the whole step as a relation between the context before
+ * and after. Ints are exact (WP proves that no C operation on them overflows). A definition that computes on
+ * reals, and each part of a guard, update, output or register that does, is declared without a body: z3 decides
+ * binary64 by bit-blasting and runs out of memory on it, so the C function's ensures clause that links it to its
+ * symbol is the one goal left unproved for it, and the exhaustive and sequence checks compare that C bit for bit
+ * with the spec's semantics instead. */
+/* when1: reset */
+/*@ logic boolean mlca_when1(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   (!(i.N != 0));
   @*/
-/*@ predicate mlca_reachable(mlca_state_t s) =
-  @   s == MLCA_IDLE || s == MLCA_WAITING || s == MLCA_MOVING_LEFT || s == MLCA_MOVING_RIGHT;
+/* when2: idle_wait */
+/*@ logic boolean mlca_when2(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   ((i.N != 0) && (i.W != 0));
   @*/
-/*@ predicate mlca_inputs_bool(mlca_inputs_t in) =
-  @   (in.N == 0 || in.N == 1) && (in.W == 0 || in.W == 1) && (in.L == 0 || in.L == 1) && (in.R == 0 || in.R == 1);
+/* when3: idle_left */
+/*@ logic boolean mlca_when3(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   ((i.N != 0) && (i.L != 0));
   @*/
-/*@ predicate mlca_inv_A1(mlca_inputs_t in, mlca_state_t s) =
-  @   ((s == MLCA_IDLE) || (s == MLCA_WAITING) || (s == MLCA_MOVING_LEFT) || (s == MLCA_MOVING_RIGHT));
+/* when4: idle_right */
+/*@ logic boolean mlca_when4(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   ((i.N != 0) && (i.R != 0));
   @*/
-/*@ predicate mlca_inv_A2(mlca_inputs_t in, mlca_state_t s) =
-  @   ((!in.N) ==> (s == MLCA_IDLE));
+/* when5: wait_exit */
+/*@ logic boolean mlca_when5(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   ((i.N != 0) && ((i.L != 0) || (i.R != 0)));
   @*/
-/*@ predicate mlca_inv_A3(mlca_inputs_t in, mlca_state_t s) =
-  @   ((s == MLCA_MOVING_LEFT) ==> (in.N && in.L));
+/* when6: left_abort */
+/*@ logic boolean mlca_when6(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   ((i.N != 0) && (!(i.L != 0)));
   @*/
-/*@ predicate mlca_inv_A4(mlca_inputs_t in, mlca_state_t s) =
-  @   ((s == MLCA_MOVING_RIGHT) ==> (in.N && in.R));
+/* when7: right_abort */
+/*@ logic boolean mlca_when7(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   ((i.N != 0) && (!(i.R != 0)));
   @*/
-/*@ predicate mlca_inv_no_move_when_waiting(mlca_inputs_t in, mlca_state_t s) =
-  @   ((((in.N && in.W) && (!in.L)) && (!in.R)) ==> ((s == MLCA_IDLE) || (s == MLCA_WAITING)));
+/* mlca_<STATE>__none_<k>: in that mode, none of its first k transitions is enabled (first-match, in priority
+ * order); each is the one before it and one more condition, so the contract grows linearly with the transitions. */
+/*@ predicate mlca_IDLE__none_1(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   !mlca_when1(c, i, p);
   @*/
-/* mlca_<STATE>__none_<k>: in that state, none of the first k guards holds (first-match, in priority order);
- * each is the one before it and one more guard, so the contract grows linearly with the transitions. */
-/*@ predicate mlca_IDLE__none_1(mlca_inputs_t in) =
-  @   !(!in.N);
+/*@ predicate mlca_IDLE__none_2(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_IDLE__none_1(c, i, p) && !mlca_when2(c, i, p);
   @*/
-/*@ predicate mlca_IDLE__none_2(mlca_inputs_t in) =
-  @   mlca_IDLE__none_1(in) && !(in.N && in.W);
+/*@ predicate mlca_IDLE__none_3(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_IDLE__none_2(c, i, p) && !mlca_when3(c, i, p);
   @*/
-/*@ predicate mlca_IDLE__none_3(mlca_inputs_t in) =
-  @   mlca_IDLE__none_2(in) && !(in.N && in.L);
+/*@ predicate mlca_IDLE__none_4(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_IDLE__none_3(c, i, p) && !mlca_when4(c, i, p);
   @*/
-/*@ predicate mlca_IDLE__none_4(mlca_inputs_t in) =
-  @   mlca_IDLE__none_3(in) && !(in.N && in.R);
+/*@ predicate mlca_WAITING__none_1(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   !mlca_when1(c, i, p);
   @*/
-/*@ predicate mlca_WAITING__none_1(mlca_inputs_t in) =
-  @   !(!in.N);
+/*@ predicate mlca_WAITING__none_2(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_WAITING__none_1(c, i, p) && !mlca_when5(c, i, p);
   @*/
-/*@ predicate mlca_WAITING__none_2(mlca_inputs_t in) =
-  @   mlca_WAITING__none_1(in) && !(in.N && (in.L || in.R));
+/*@ predicate mlca_MOVING_LEFT__none_1(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   !mlca_when1(c, i, p);
   @*/
-/*@ predicate mlca_MOVING_LEFT__none_1(mlca_inputs_t in) =
-  @   !(!in.N);
+/*@ predicate mlca_MOVING_LEFT__none_2(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_MOVING_LEFT__none_1(c, i, p) && !mlca_when6(c, i, p);
   @*/
-/*@ predicate mlca_MOVING_LEFT__none_2(mlca_inputs_t in) =
-  @   mlca_MOVING_LEFT__none_1(in) && !(in.N && (!in.L));
+/*@ predicate mlca_MOVING_RIGHT__none_1(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   !mlca_when1(c, i, p);
   @*/
-/*@ predicate mlca_MOVING_RIGHT__none_1(mlca_inputs_t in) =
-  @   !(!in.N);
+/*@ predicate mlca_MOVING_RIGHT__none_2(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_MOVING_RIGHT__none_1(c, i, p) && !mlca_when7(c, i, p);
   @*/
-/*@ predicate mlca_MOVING_RIGHT__none_2(mlca_inputs_t in) =
-  @   mlca_MOVING_RIGHT__none_1(in) && !(in.N && (!in.R));
+/* mlca_first_<MODE>(c, i, p): in that mode, the transition that fires, by its number (0: none) */
+/*@ logic integer mlca_first_IDLE(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_when1(c, i, p) ? 1 : mlca_when2(c, i, p) ? 2 : mlca_when3(c, i, p) ? 3 : mlca_when4(c, i, p) ? 4 : 0;
+  @*/
+/*@ logic integer mlca_first_WAITING(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_when1(c, i, p) ? 1 : mlca_when5(c, i, p) ? 5 : 0;
+  @*/
+/*@ logic integer mlca_first_MOVING_LEFT(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_when1(c, i, p) ? 1 : mlca_when6(c, i, p) ? 6 : 0;
+  @*/
+/*@ logic integer mlca_first_MOVING_RIGHT(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   mlca_when1(c, i, p) ? 1 : mlca_when7(c, i, p) ? 7 : 0;
+  @*/
+/* mlca_first(c, i, p): the transition that fires (-1: the mode is not a state); a function, not a relation, so
+ * that the step's contract names the transition instead of asserting that one exists */
+/*@ logic integer mlca_first(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p) =
+  @   c.mode == MLCA_IDLE ? mlca_first_IDLE(c, i, p) :
+  @   c.mode == MLCA_WAITING ? mlca_first_WAITING(c, i, p) :
+  @   c.mode == MLCA_MOVING_LEFT ? mlca_first_MOVING_LEFT(c, i, p) :
+  @   c.mode == MLCA_MOVING_RIGHT ? mlca_first_MOVING_RIGHT(c, i, p) :
+  @   -1;
+  @*/
+/*@ axiomatic mlca_any {
+  @   logic mlca_inputs_t mlca_any_inputs;
+  @   logic mlca_params_t mlca_any_params;
+  @ }
+  @*/
+/* mlca_fresh(n): n's variables at their initial values, as
+ * mlca_init leaves a context and the step restarts one whose mode is not a state */
+/*@ predicate mlca_fresh(mlca_ctx_t n) =
+  @   \true;
+  @*/
+/* mlca_target(k, m): the mode transition k leads to (0: none, the mode m is kept) */
+/*@ logic integer mlca_target(integer k, integer m) =
+  @   k == 1 ? MLCA_IDLE : k == 2 ? MLCA_WAITING : k == 3 ? MLCA_MOVING_LEFT : k == 4 ? MLCA_MOVING_RIGHT : k == 5 ? MLCA_IDLE : k == 6 ? MLCA_IDLE : k == 7 ? MLCA_IDLE : m;
+  @*/
+/* mlca_next(c, i, p, k, n): n is the context after transition k fires in c (-1: the restart, in the fallback
+ * mode, of a context whose mode is not a state, whatever the inputs and params) */
+/*@ predicate mlca_next(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p, integer k, mlca_ctx_t n) =
+  @   k < 0 ? (n.mode == MLCA_FALLBACK && mlca_fresh(n))
+  @   : (n.mode == (k == 1 ? MLCA_IDLE : k == 2 ? MLCA_WAITING : k == 3 ? MLCA_MOVING_LEFT : k == 4 ? MLCA_MOVING_RIGHT : k == 5 ? MLCA_IDLE : k == 6 ? MLCA_IDLE : k == 7 ? MLCA_IDLE : c.mode)
+  @     );
+  @*/
+/* mlca_outputs_l(c, i, p, o): the outputs after the step */
+/*@ predicate mlca_outputs_l(mlca_ctx_t c, mlca_inputs_t i, mlca_params_t p, mlca_outputs_t o) =
+  @   \true;
   @*/
 
-/*@ requires mlca_inputs_bool(in);
+/*@ requires \valid_read(p);
   @ assigns \nothing;
-  @ behavior IDLE__1_reset:
-  @   assumes s == MLCA_IDLE;
-  @   assumes (!in.N);
-  @   ensures \result == MLCA_IDLE;
+  @*/
+bool mlca_params_valid(const mlca_params_t *p)
+{
+    bool ok = true;
+    (void)p;
+    return ok;
+}
+
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && \valid(o) && \separated(o, c, i, p);
+  @ assigns *o;
+  @ ensures mlca_outputs_l(*c, *i, *p, *o);
+  @*/
+static void mlca_outputs(const mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p, mlca_outputs_t *o)
+{
+    (void)c;
+    (void)i;
+    (void)p;
+    (void)o; /* no outputs: the struct's one member is never read */
+}
+
+/*@ requires \valid(c);
+  @ assigns *c;
+  @ ensures \true && c->mode == MLCA_FALLBACK;
+  @ ensures mlca_next(\old(*c), mlca_any_inputs, mlca_any_params, -1, *c);
+  @*/
+static void mlca_restart(mlca_ctx_t *c)
+{
+    c->mode = MLCA_FALLBACK;
+}
+
+/*@ requires \valid(c);
+  @ assigns *c;
+  @ ensures \true && c->mode == MLCA_INITIAL && mlca_fresh(*c);
+  @*/
+void mlca_init(mlca_ctx_t *c)
+{
+    mlca_restart(c);
+    c->mode = MLCA_INITIAL;
+}
+
+/* The mode each mode's first enabled transition leads to (the mode itself where none is), in a function of its own
+ * with one behaviour per transition: each WP goal then holds that mode's transitions only. The step tests
+ * the first 1 transition of every mode (reset, to the fallback mode) once, before it
+ * tells the modes apart, so these functions require it disabled. */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && c->mode == MLCA_IDLE && !mlca_when1(*c, *i, *p);
+  @ assigns \nothing;
+  @ ensures \result == mlca_target(mlca_first_IDLE(*c, *i, *p), c->mode);
   @ behavior IDLE__2_idle_wait:
-  @   assumes s == MLCA_IDLE;
-  @   assumes (in.N && in.W);
-  @   assumes mlca_IDLE__none_1(in);
+  @   assumes mlca_when2(*c, *i, *p);
+  @   assumes mlca_IDLE__none_1(*c, *i, *p);
   @   ensures \result == MLCA_WAITING;
   @ behavior IDLE__3_idle_left:
-  @   assumes s == MLCA_IDLE;
-  @   assumes (in.N && in.L);
-  @   assumes mlca_IDLE__none_2(in);
+  @   assumes mlca_when3(*c, *i, *p);
+  @   assumes mlca_IDLE__none_2(*c, *i, *p);
   @   ensures \result == MLCA_MOVING_LEFT;
   @ behavior IDLE__4_idle_right:
-  @   assumes s == MLCA_IDLE;
-  @   assumes (in.N && in.R);
-  @   assumes mlca_IDLE__none_3(in);
+  @   assumes mlca_when4(*c, *i, *p);
+  @   assumes mlca_IDLE__none_3(*c, *i, *p);
   @   ensures \result == MLCA_MOVING_RIGHT;
   @ behavior IDLE__otherwise:
-  @   assumes s == MLCA_IDLE;
-  @   assumes mlca_IDLE__none_4(in);
+  @   assumes mlca_IDLE__none_4(*c, *i, *p);
   @   ensures \result == MLCA_IDLE;
-  @ behavior WAITING__1_reset:
-  @   assumes s == MLCA_WAITING;
-  @   assumes (!in.N);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior WAITING__2_wait_exit:
-  @   assumes s == MLCA_WAITING;
-  @   assumes (in.N && (in.L || in.R));
-  @   assumes mlca_WAITING__none_1(in);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior WAITING__otherwise:
-  @   assumes s == MLCA_WAITING;
-  @   assumes mlca_WAITING__none_2(in);
-  @   ensures \result == MLCA_WAITING;
-  @ behavior MOVING_LEFT__1_reset:
-  @   assumes s == MLCA_MOVING_LEFT;
-  @   assumes (!in.N);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior MOVING_LEFT__2_left_abort:
-  @   assumes s == MLCA_MOVING_LEFT;
-  @   assumes (in.N && (!in.L));
-  @   assumes mlca_MOVING_LEFT__none_1(in);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior MOVING_LEFT__otherwise:
-  @   assumes s == MLCA_MOVING_LEFT;
-  @   assumes mlca_MOVING_LEFT__none_2(in);
-  @   ensures \result == MLCA_MOVING_LEFT;
-  @ behavior MOVING_RIGHT__1_reset:
-  @   assumes s == MLCA_MOVING_RIGHT;
-  @   assumes (!in.N);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior MOVING_RIGHT__2_right_abort:
-  @   assumes s == MLCA_MOVING_RIGHT;
-  @   assumes (in.N && (!in.R));
-  @   assumes mlca_MOVING_RIGHT__none_1(in);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior MOVING_RIGHT__otherwise:
-  @   assumes s == MLCA_MOVING_RIGHT;
-  @   assumes mlca_MOVING_RIGHT__none_2(in);
-  @   ensures \result == MLCA_MOVING_RIGHT;
-  @ behavior out_of_range:
-  @   assumes !mlca_valid(s);
-  @   ensures \result == MLCA_IDLE;
-  @ behavior keeps_A1:
-  @   assumes mlca_reachable(s);
-  @   ensures mlca_inv_A1(in, \result);
-  @ behavior keeps_A2:
-  @   assumes mlca_reachable(s);
-  @   ensures mlca_inv_A2(in, \result);
-  @ behavior keeps_A3:
-  @   assumes mlca_reachable(s);
-  @   ensures mlca_inv_A3(in, \result);
-  @ behavior keeps_A4:
-  @   assumes mlca_reachable(s);
-  @   ensures mlca_inv_A4(in, \result);
-  @ behavior keeps_no_move_when_waiting:
-  @   assumes mlca_reachable(s);
-  @   ensures mlca_inv_no_move_when_waiting(in, \result);
-  @ complete behaviors
-  @   IDLE__1_reset, IDLE__2_idle_wait, IDLE__3_idle_left, IDLE__4_idle_right, IDLE__otherwise,
-  @   WAITING__1_reset, WAITING__2_wait_exit, WAITING__otherwise,
-  @   MOVING_LEFT__1_reset, MOVING_LEFT__2_left_abort, MOVING_LEFT__otherwise,
-  @   MOVING_RIGHT__1_reset, MOVING_RIGHT__2_right_abort, MOVING_RIGHT__otherwise,
-  @   out_of_range;
-  @ disjoint behaviors
-  @   IDLE__1_reset, IDLE__2_idle_wait, IDLE__3_idle_left, IDLE__4_idle_right, IDLE__otherwise,
-  @   WAITING__1_reset, WAITING__2_wait_exit, WAITING__otherwise,
-  @   MOVING_LEFT__1_reset, MOVING_LEFT__2_left_abort, MOVING_LEFT__otherwise,
-  @   MOVING_RIGHT__1_reset, MOVING_RIGHT__2_right_abort, MOVING_RIGHT__otherwise,
-  @   out_of_range;
+  @ complete behaviors;
   @*/
-mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in)
+static mlca_state_t mlca_to_IDLE(const mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p)
 {
     mlca_state_t next;
-    if (!in.N) { /* reset: not N (Alg. 1, l.4-7), in every state */
+    (void)c;
+    (void)i;
+    (void)p;
+    if (i->W) { /* idle_wait: N and W (Alg. 1, l.9-10) */
+        next = MLCA_WAITING;
+    } else if (i->L) { /* idle_left: N and L (Alg. 1, l.11-12) */
+        next = MLCA_MOVING_LEFT;
+    } else if (i->R) { /* idle_right: N and R (Alg. 1, l.13-14) */
+        next = MLCA_MOVING_RIGHT;
+    } else { /* otherwise: the mode is kept */
         next = MLCA_IDLE;
-    } else {
-        if (s == MLCA_IDLE) {
-            if (in.W) { /* idle_wait: N and W (Alg. 1, l.9-10) */
-                next = MLCA_WAITING;
-            } else if (in.L) { /* idle_left: N and L (Alg. 1, l.11-12) */
-                next = MLCA_MOVING_LEFT;
-            } else if (in.R) { /* idle_right: N and R (Alg. 1, l.13-14) */
-                next = MLCA_MOVING_RIGHT;
-            } else { /* otherwise: stay (Alg. 1, l.1-2) */
-                next = MLCA_IDLE;
-            }
-        } else if (s == MLCA_WAITING) {
-            if (in.L || in.R) { /* wait_exit: N and (L or R) (Alg. 1, l.16-18) */
-                next = MLCA_IDLE;
-            } else { /* otherwise: stay (Alg. 1, l.1-2) */
-                next = MLCA_WAITING;
-            }
-        } else if (s == MLCA_MOVING_LEFT) {
-            if (!in.L) { /* left_abort: N and not L (Alg. 1, l.20-22) */
-                next = MLCA_IDLE;
-            } else { /* otherwise: stay (Alg. 1, l.1-2) */
-                next = MLCA_MOVING_LEFT;
-            }
-        } else if (s == MLCA_MOVING_RIGHT) {
-            if (!in.R) { /* right_abort: N and not R (Alg. 1, l.24-26) */
-                next = MLCA_IDLE;
-            } else { /* otherwise: stay (Alg. 1, l.1-2) */
-                next = MLCA_MOVING_RIGHT;
-            }
-        } else { /* out of range: to the fallback state */
-            next = MLCA_FALLBACK;
-        }
     }
     return next;
 }
 
-/*@ assigns \nothing;
-  @ ensures \result <==> mlca_valid(s);
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && c->mode == MLCA_WAITING && !mlca_when1(*c, *i, *p);
+  @ assigns \nothing;
+  @ ensures \result == mlca_target(mlca_first_WAITING(*c, *i, *p), c->mode);
+  @ behavior WAITING__2_wait_exit:
+  @   assumes mlca_when5(*c, *i, *p);
+  @   assumes mlca_WAITING__none_1(*c, *i, *p);
+  @   ensures \result == MLCA_IDLE;
+  @ behavior WAITING__otherwise:
+  @   assumes mlca_WAITING__none_2(*c, *i, *p);
+  @   ensures \result == MLCA_WAITING;
+  @ complete behaviors;
   @*/
-bool mlca_state_valid(mlca_state_t s)
+static mlca_state_t mlca_to_WAITING(const mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p)
 {
-    bool valid;
-    switch (s) {
-    case MLCA_IDLE:
-    case MLCA_WAITING:
-    case MLCA_MOVING_LEFT:
-    case MLCA_MOVING_RIGHT:
-        valid = true;
-        break;
-    default:
-        valid = false;
-        break;
+    mlca_state_t next;
+    (void)c;
+    (void)i;
+    (void)p;
+    if ((i->L || i->R)) { /* wait_exit: N and (L or R) (Alg. 1, l.16-18) */
+        next = MLCA_IDLE;
+    } else { /* otherwise: the mode is kept */
+        next = MLCA_WAITING;
     }
-    return valid;
+    return next;
 }
 
-/*@ requires mlca_inputs_bool(in);
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && c->mode == MLCA_MOVING_LEFT && !mlca_when1(*c, *i, *p);
   @ assigns \nothing;
-  @ ensures \result <==> (mlca_valid(s) && mlca_inv_A1(in, s) && mlca_inv_A2(in, s) && mlca_inv_A3(in, s) && mlca_inv_A4(in, s) && mlca_inv_no_move_when_waiting(in, s));
+  @ ensures \result == mlca_target(mlca_first_MOVING_LEFT(*c, *i, *p), c->mode);
+  @ behavior MOVING_LEFT__2_left_abort:
+  @   assumes mlca_when6(*c, *i, *p);
+  @   assumes mlca_MOVING_LEFT__none_1(*c, *i, *p);
+  @   ensures \result == MLCA_IDLE;
+  @ behavior MOVING_LEFT__otherwise:
+  @   assumes mlca_MOVING_LEFT__none_2(*c, *i, *p);
+  @   ensures \result == MLCA_MOVING_LEFT;
+  @ complete behaviors;
   @*/
-bool mlca_invariants_hold(mlca_inputs_t in, mlca_state_t s)
+static mlca_state_t mlca_to_MOVING_LEFT(const mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p)
 {
-    bool hold = (s == MLCA_IDLE) || (s == MLCA_WAITING) || (s == MLCA_MOVING_LEFT) || (s == MLCA_MOVING_RIGHT);
-    /* A1: Alg. 1, l.29 (Assert 1): holds of every state, which the check above decides */
-    hold = hold && ((!(!in.N)) || (s == MLCA_IDLE)); /* A2: Alg. 1, l.30 (Assert 2) */
-    hold = hold && ((!(s == MLCA_MOVING_LEFT)) || (in.N && in.L)); /* A3: Alg. 1, l.31 (Assert 3) */
-    hold = hold && ((!(s == MLCA_MOVING_RIGHT)) || (in.N && in.R)); /* A4: Alg. 1, l.32 (Assert 4) */
-    hold = hold && ((!(((in.N && in.W) && (!in.L)) && (!in.R))) || ((s == MLCA_IDLE) || (s == MLCA_WAITING))); /* no-move-when-waiting: Sec. III-B ('defers non-safety-critical lane changes'); Abstract */
-    return hold;
+    mlca_state_t next;
+    (void)c;
+    (void)i;
+    (void)p;
+    if ((!i->L)) { /* left_abort: N and not L (Alg. 1, l.20-22) */
+        next = MLCA_IDLE;
+    } else { /* otherwise: the mode is kept */
+        next = MLCA_MOVING_LEFT;
+    }
+    return next;
+}
+
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && c->mode == MLCA_MOVING_RIGHT && !mlca_when1(*c, *i, *p);
+  @ assigns \nothing;
+  @ ensures \result == mlca_target(mlca_first_MOVING_RIGHT(*c, *i, *p), c->mode);
+  @ behavior MOVING_RIGHT__2_right_abort:
+  @   assumes mlca_when7(*c, *i, *p);
+  @   assumes mlca_MOVING_RIGHT__none_1(*c, *i, *p);
+  @   ensures \result == MLCA_IDLE;
+  @ behavior MOVING_RIGHT__otherwise:
+  @   assumes mlca_MOVING_RIGHT__none_2(*c, *i, *p);
+  @   ensures \result == MLCA_MOVING_RIGHT;
+  @ complete behaviors;
+  @*/
+static mlca_state_t mlca_to_MOVING_RIGHT(const mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p)
+{
+    mlca_state_t next;
+    (void)c;
+    (void)i;
+    (void)p;
+    if ((!i->R)) { /* right_abort: N and not R (Alg. 1, l.24-26) */
+        next = MLCA_IDLE;
+    } else { /* otherwise: the mode is kept */
+        next = MLCA_MOVING_RIGHT;
+    }
+    return next;
+}
+
+/* Proved by Frama-C WP (`mlca-verify conform`, check frama-c-wp): no runtime error; the step is the spec's (the
+ * context after it and the outputs are those of the transition that fires); and from a context whose variables
+ * are in their ranges (the spec's range: checks prove every reachable one is), it keeps them in range and leaves
+ * the mode a state. */
+/*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && \valid(c) && \valid(o) && \separated(c, o, i, p) && \separated(o, i, p);
+  @ assigns *c, *o;
+  @ ensures \true;
+  @ ensures c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT;
+  @ ensures mlca_next(\old(*c), *i, *p, mlca_first(\old(*c), *i, *p), *c);
+  @ ensures mlca_outputs_l(*c, *i, *p, *o);
+  @*/
+void mlca_step(mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p, mlca_outputs_t *o)
+{
+    mlca_ctx_t next = *c;
+    if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7), from every mode */
+        next.mode = MLCA_IDLE;
+    } else if (c->mode == MLCA_IDLE) {
+        next.mode = mlca_to_IDLE(c, i, p);
+    } else if (c->mode == MLCA_WAITING) {
+        next.mode = mlca_to_WAITING(c, i, p);
+    } else if (c->mode == MLCA_MOVING_LEFT) {
+        next.mode = mlca_to_MOVING_LEFT(c, i, p);
+    } else if (c->mode == MLCA_MOVING_RIGHT) {
+        next.mode = mlca_to_MOVING_RIGHT(c, i, p);
+    } else {
+        mlca_restart(&next); /* the mode is not a state: restart in the fallback mode */
+    }
+    /*@ assert stepped: mlca_next(*c, *i, *p, mlca_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
+    mlca_outputs(&next, i, p, o);
+    *c = next;
+}
+
+/*@ requires \valid_read(before) && \valid_read(i) && \valid_read(p) && \true && \true && \valid_read(after) && \valid_read(o);
+  @ requires \valid(failing + (0 .. MLCA_INVARIANTS)) && \separated(failing + (0 .. MLCA_INVARIANTS), before, after, i, p, o);
+  @ assigns failing[0 .. MLCA_INVARIANTS];
+  @*/
+void mlca_monitor(const mlca_ctx_t *before, const mlca_ctx_t *after, const mlca_inputs_t *i,
+    const mlca_params_t *p, const mlca_outputs_t *o, bool failing[MLCA_FAILING])
+{
+    const mlca_ctx_t *c = after;
+    (void)c;
+    (void)before;
+    (void)after;
+    (void)i;
+    (void)p;
+    (void)o;
+    const bool holds0 = ((c->mode == MLCA_IDLE) || (c->mode == MLCA_WAITING) || (c->mode == MLCA_MOVING_LEFT) || (c->mode == MLCA_MOVING_RIGHT)); /* A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1)) */
+    const bool holds1 = ((!(!i->N)) || (c->mode == MLCA_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
+    const bool holds2 = ((!(c->mode == MLCA_MOVING_LEFT)) || (i->N && i->L)); /* A3: state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3)) */
+    const bool holds3 = ((!(c->mode == MLCA_MOVING_RIGHT)) || (i->N && i->R)); /* A4: state == MOVING_RIGHT -> N and R (Alg. 1, l.32 (Assert 4)) */
+    const bool holds4 = ((!(((i->N && i->W) && (!i->L)) && (!i->R))) || ((c->mode == MLCA_IDLE) || (c->mode == MLCA_WAITING))); /* no-move-when-waiting: N and W and not L and not R -> state in {IDLE, WAITING} (Sec. III-B ('defers non-safety-critical lane changes'); Abstract) */
+    failing[0] = !holds0;
+    failing[1] = !holds1;
+    failing[2] = !holds2;
+    failing[3] = !holds3;
+    failing[4] = !holds4;
+    failing[MLCA_INVARIANTS] = false;
 }

@@ -2,12 +2,16 @@
  * spec sha256: ada543c568ffa92c07af5bc4d7d3577b95074bbbe3330b1f02a0268adff5fd7c
  * Do not edit: regenerate with `mlca-verify gen spec/mlca.toml`.
  *
- * The MLCA state machine (Alg. 1, l.1-2). C99, no heap, no recursion, no library calls.
+ * The MLCA controller (Alg. 1, l.1-2): its mode, variables and outputs, as the spec defines
+ * them. C99, no heap, no recursion, no library calls. Reals are IEEE 754 binary64 and must not be contracted
+ * into fused operations (-ffp-contract=off, the default of gcc -std=c99), so that every result equals the
+ * generated Python's bit for bit.
  */
 #ifndef MLCA_FSM_H
 #define MLCA_FSM_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 typedef enum {
     MLCA_IDLE = 0,
@@ -17,8 +21,11 @@ typedef enum {
 } mlca_state_t;
 
 #define MLCA_INITIAL MLCA_IDLE
-#define MLCA_FALLBACK MLCA_IDLE /* where a state value that names no state goes: the spec's fallback */
+#define MLCA_FALLBACK MLCA_IDLE /* the mode a context whose mode names no state restarts in */
+#define MLCA_INVARIANTS 5
+#define MLCA_FAILING 6 /* the monitor's array: one per invariant, and a last one that stays false */
 
+/* The inputs of one step: booleans, then signals (a sample outside its range, NaN or an infinity is invalid). */
 typedef struct {
     bool N; /* a lane change is needed (navigation signal; prose: 'Need to Move') (Alg. 1 Require; Sec. III-B) */
     bool W; /* the AV can wait (Alg. 1: 'Wait command'; prose: 'Can Wait'; Fig. 1 caption: 'waiting timeout') (Alg. 1 Require; Sec. III-B; Fig. 1 caption) */
@@ -26,18 +33,36 @@ typedef struct {
     bool R; /* the gap in the right lane is safe (prose: 'Right Side Empty') (Alg. 1 Require; Sec. III-B) */
 } mlca_inputs_t;
 
-/* Every input is false or true (0 or 1), as C99 requires of a bool: bytes with other values (a memset, an
- * unchecked copy) are undefined behaviour before this code runs, and no code can normalise them afterwards.
- * The contracts state it (requires mlca_inputs_bool); a caller built with -fsanitize=bool reports a
- * breach, as `mlca-verify conform` shows (check sanitizers). */
+/* The params: mlca_DEFAULT_PARAMS holds the spec's defaults; a caller's own must pass
+ * mlca_params_valid (each within its range), as every proof of the spec assumes. */
+typedef struct {
+    char unused; /* the machine has no params */
+} mlca_params_t;
 
-/* The state after one step from s under in; an out-of-range s goes to MLCA_FALLBACK. */
-mlca_state_t mlca_step(mlca_state_t s, mlca_inputs_t in);
+/* The context between two steps: the mode. */
+typedef struct {
+    mlca_state_t mode;
+} mlca_ctx_t;
 
-/* True when s is one of the machine's states. */
-bool mlca_state_valid(mlca_state_t s);
+/* The outputs of one step, over the context after it. */
+typedef struct {
+    char unused; /* the machine has no outputs */
+} mlca_outputs_t;
 
-/* The runtime monitor: true when s is valid and every invariant holds for in and s. */
-bool mlca_invariants_hold(mlca_inputs_t in, mlca_state_t s);
+extern const mlca_params_t mlca_DEFAULT_PARAMS;
+
+/* True when every param lies in its range. */
+bool mlca_params_valid(const mlca_params_t *p);
+
+/* The context before the first step. */
+void mlca_init(mlca_ctx_t *c);
+
+/* One step: the context moves on under i and p, and o receives the outputs. A context whose mode is not a
+ * state starts again from mlca_init. */
+void mlca_step(mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p, mlca_outputs_t *o);
+
+/* The runtime monitor: failing[k] is true when invariant k fails after the step from before to after. */
+void mlca_monitor(const mlca_ctx_t *before, const mlca_ctx_t *after, const mlca_inputs_t *i,
+    const mlca_params_t *p, const mlca_outputs_t *o, bool failing[MLCA_FAILING]);
 
 #endif /* MLCA_FSM_H */

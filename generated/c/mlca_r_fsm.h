@@ -2,12 +2,16 @@
  * spec sha256: 14850cf96d4019803bcd8807ef63d9a9e6a8bc0dcb60a7173aff21b51f13f6ad
  * Do not edit: regenerate with `mlca-verify gen spec/mlca_r.toml`.
  *
- * The MLCA_R state machine (Alg. 1, l.1-2 (repaired at l.16-18)). C99, no heap, no recursion, no library calls.
+ * The MLCA_R controller (Alg. 1, l.1-2 (repaired at l.16-18)): its mode, variables and outputs, as the spec defines
+ * them. C99, no heap, no recursion, no library calls. Reals are IEEE 754 binary64 and must not be contracted
+ * into fused operations (-ffp-contract=off, the default of gcc -std=c99), so that every result equals the
+ * generated Python's bit for bit.
  */
 #ifndef MLCA_R_FSM_H
 #define MLCA_R_FSM_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 typedef enum {
     MLCA_R_IDLE = 0,
@@ -17,8 +21,11 @@ typedef enum {
 } mlca_r_state_t;
 
 #define MLCA_R_INITIAL MLCA_R_IDLE
-#define MLCA_R_FALLBACK MLCA_R_IDLE /* where a state value that names no state goes: the spec's fallback */
+#define MLCA_R_FALLBACK MLCA_R_IDLE /* the mode a context whose mode names no state restarts in */
+#define MLCA_R_INVARIANTS 6
+#define MLCA_R_FAILING 7 /* the monitor's array: one per invariant, and a last one that stays false */
 
+/* The inputs of one step: booleans, then signals (a sample outside its range, NaN or an infinity is invalid). */
 typedef struct {
     bool N; /* a lane change is needed (Alg. 1 Require; Sec. III-B 'N (Need to Move)') */
     bool W; /* the AV can afford to wait (the lane change is not safety-critical yet) (Alg. 1 Require; Sec. III-B 'W (Can Wait)') */
@@ -26,18 +33,36 @@ typedef struct {
     bool R; /* the gap in the right lane is safe (Alg. 1 Require; Sec. III-B 'R (Right Side Empty)') */
 } mlca_r_inputs_t;
 
-/* Every input is false or true (0 or 1), as C99 requires of a bool: bytes with other values (a memset, an
- * unchecked copy) are undefined behaviour before this code runs, and no code can normalise them afterwards.
- * The contracts state it (requires mlca_r_inputs_bool); a caller built with -fsanitize=bool reports a
- * breach, as `mlca-verify conform` shows (check sanitizers). */
+/* The params: mlca_r_DEFAULT_PARAMS holds the spec's defaults; a caller's own must pass
+ * mlca_r_params_valid (each within its range), as every proof of the spec assumes. */
+typedef struct {
+    char unused; /* the machine has no params */
+} mlca_r_params_t;
 
-/* The state after one step from s under in; an out-of-range s goes to MLCA_R_FALLBACK. */
-mlca_r_state_t mlca_r_step(mlca_r_state_t s, mlca_r_inputs_t in);
+/* The context between two steps: the mode. */
+typedef struct {
+    mlca_r_state_t mode;
+} mlca_r_ctx_t;
 
-/* True when s is one of the machine's states. */
-bool mlca_r_state_valid(mlca_r_state_t s);
+/* The outputs of one step, over the context after it. */
+typedef struct {
+    char unused; /* the machine has no outputs */
+} mlca_r_outputs_t;
 
-/* The runtime monitor: true when s is valid and every invariant holds for in and s. */
-bool mlca_r_invariants_hold(mlca_r_inputs_t in, mlca_r_state_t s);
+extern const mlca_r_params_t mlca_r_DEFAULT_PARAMS;
+
+/* True when every param lies in its range. */
+bool mlca_r_params_valid(const mlca_r_params_t *p);
+
+/* The context before the first step. */
+void mlca_r_init(mlca_r_ctx_t *c);
+
+/* One step: the context moves on under i and p, and o receives the outputs. A context whose mode is not a
+ * state starts again from mlca_r_init. */
+void mlca_r_step(mlca_r_ctx_t *c, const mlca_r_inputs_t *i, const mlca_r_params_t *p, mlca_r_outputs_t *o);
+
+/* The runtime monitor: failing[k] is true when invariant k fails after the step from before to after. */
+void mlca_r_monitor(const mlca_r_ctx_t *before, const mlca_r_ctx_t *after, const mlca_r_inputs_t *i,
+    const mlca_r_params_t *p, const mlca_r_outputs_t *o, bool failing[MLCA_R_FAILING]);
 
 #endif /* MLCA_R_FSM_H */

@@ -481,9 +481,7 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         raise UsageError.at(db, "results database not found")
     writable_folder(Path(args.out))
     spec = load_spec(args.spec, confine=not args.allow_outside)
-    work = "proofs, conformance (Frama-C takes a few seconds), readings"
-    if spec.machine.has_data:
-        work = "proofs, conformance (Frama-C WP takes about a minute), readings"
+    work = "proofs, conformance (Frama-C WP takes up to a minute), readings"
     say(f"collecting evidence for {args.spec}: {work}", flush=True)
     runs = None
     if db is not None:  # read through the results database's reader, before the long work starts

@@ -1,8 +1,8 @@
-"""How generated code is loaded: imported, or built and imported, behind one small protocol.
+"""How generated code is loaded: imported, or built and imported, behind two calls.
 
-Every consumer (conform, emit, evidence, the closed loop) finds a machine's files through `layout.Layout` and
-runs them through one small protocol, `Generated`: `step`, `holds` (the monitor on a state) and
-`advance` (one step and the monitor on the state reached, answered as one int: the closed loop's call).
+Every consumer (conform, emit, evidence, the closed loop) finds a machine's files through `layout.Layout`; the
+closed loop runs them through `context()` (a new context) and `advance(context, *values)` (one step and the
+monitor, answered as one packed int and the outputs), which the Python module and the C extension both answer.
 
 Python is imported from its file; C is built with the interpreter's headers into an extension module whose
 functions the interpreter calls directly (METH_FASTCALL). That is the closed loop's fast path: measured with
@@ -18,9 +18,8 @@ import sysconfig
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import Any, Protocol
+from typing import Any
 
-from mlca_verify.codegen.data_ir import DataIR
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.codegen.render import render_template
 from mlca_verify.errors import ToolError
@@ -29,61 +28,12 @@ from mlca_verify.tools import build_shared
 
 HOLDS = 0x10000  # the bit of an `advance` answer that says every invariant holds in the state reached
 STATE_BITS = 0xFFFF  # the bits of an `advance` answer that are the state reached
-FIRED_SHIFT = 20  # a machine with data: its answer holds the number of the transition that fired, plus one, here
+FIRED_SHIFT = 20  # the answer holds the number of the transition that fired, plus one, here
 FIRED_MASK = 0xFFF  # ... in these bits (after the shift)
 DEFS_SHIFT = 32  # ... and from here, one bit per boolean definition (`flag_definitions`), as the step saw it
 
 
-class Generated(Protocol):
-    """A generated machine, loaded: states are the generated enum's integers, inputs given in declared order."""
-
-    def step(self, state: int, values: Sequence[bool]) -> int: ...
-
-    def holds(self, state: int, values: Sequence[bool]) -> bool: ...
-
-    def advance(self, state: int, *values: bool) -> int: ...
-
-
-class PythonMachine:
-    """The generated Python module; it also names the invariants that fail (`failing`)."""
-
-    def __init__(self, module: ModuleType, inputs: Sequence[str]) -> None:
-        self.module = module
-        self.inputs = tuple(inputs)
-
-    def _inputs(self, values: Sequence[bool]) -> object:
-        return self.module.Inputs(**dict(zip(self.inputs, values, strict=True)))
-
-    def step(self, state: int, values: Sequence[bool]) -> int:
-        return int(self.module.step(state, self._inputs(values)))
-
-    def failing(self, state: int, values: Sequence[bool]) -> list[str]:
-        """The ids of the invariants that fail in `state` with these inputs."""
-        return list(self.module.check_invariants(self._inputs(values), state))
-
-    def holds(self, state: int, values: Sequence[bool]) -> bool:
-        return not self.failing(state, values)
-
-    def advance(self, state: int, *values: bool) -> int:
-        new = self.step(state, values)
-        return new | (HOLDS if self.holds(new, values) else 0)
-
-
-class CMachine:
-    """The generated C, built with a small adapter into an extension module (see the module's docstring)."""
-
-    def __init__(self, extension: ModuleType) -> None:
-        self.extension = extension
-        self.advance = extension.advance  # bound once: the closed loop's one call a step
-
-    def step(self, state: int, values: Sequence[bool]) -> int:
-        return int(self.extension.step(state, *values))
-
-    def holds(self, state: int, values: Sequence[bool]) -> bool:
-        return bool(self.extension.holds(state, *values))
-
-
-def flag_definitions(ir: DataIR) -> tuple[str, ...]:
+def flag_definitions(ir: MachineIR) -> tuple[str, ...]:
     """The boolean definitions the generated code computes (L, R, W of MLCA-T), in the spec's order: an `advance`
     answer holds their values, as the step saw them, from DEFS_SHIFT on."""
     flags = tuple(d.name for d in ir.definitions if d.ctype == "bool" and d.name in ir.used)
@@ -95,8 +45,8 @@ def flag_definitions(ir: DataIR) -> tuple[str, ...]:
     return flags
 
 
-class DataPythonMachine:
-    """The generated Python of a machine with data, behind the same two calls as its C extension module: `context()`
+class PythonMachine:
+    """The generated Python of a machine, behind the same two calls as its C extension module: `context()`
     is a new context, and `advance(context, *values)` one step and the monitor, in place, answered as
     (packed, *outputs): the mode reached, HOLDS where every invariant holds after the step, the number of the
     transition that fired plus one, shifted left by FIRED_SHIFT (0 where the mode was not a state), and the values
@@ -126,9 +76,9 @@ class DataPythonMachine:
         return (packed, *vars(out).values())
 
 
-class DataCMachine:
-    """The generated C of a machine with data, built with a small adapter into an extension module: the same
-    calls as DataPythonMachine (the context is a bytearray); its monitor says only that an invariant failed."""
+class CMachine:
+    """The generated C of a machine, built with a small adapter into an extension module: the same
+    calls as PythonMachine (the context is a bytearray); its monitor says only that an invariant failed."""
 
     def __init__(self, extension: ModuleType) -> None:
         self.context = extension.context
@@ -136,9 +86,10 @@ class DataCMachine:
         self.failing = ["invariants"]
 
 
-def load_python(layout: Layout, inputs: Sequence[str], name: str) -> PythonMachine:
-    """Import the generated Python of `layout` as the module `name`."""
-    return PythonMachine(import_generated(layout.python, name), inputs)
+def load_python(layout: Layout, name: str, flags: Sequence[str] = ()) -> PythonMachine:
+    """Import the generated Python of `layout` as the module `name`, behind `context()` and `advance()`; `flags`
+    names the boolean definitions whose values each answer carries (see `flag_definitions`)."""
+    return PythonMachine(import_generated(layout.python, name), flags)
 
 
 def import_generated(path: Path, name: str) -> ModuleType:
@@ -164,22 +115,7 @@ def python_headers() -> Path:
 
 
 def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
-    """Build the generated C of `layout` with its adapter into `build` and import it as the module `name`."""
-    sources = []
-    for template, stem in (("c_extension.c.j2", name), ("c_extension_bits.c.j2", f"{ir.module}_ext_bits")):
-        source = build / f"{stem}.c"
-        source.write_text(render_template(template, m=ir, extension=name, holds=hex(HOLDS)), encoding="utf-8")
-        sources.append(str(source))
-    library = build / f"{name}.so"
-    include = ("-I", str(layout.c_source.parent), "-I", str(python_headers()), *sources)
-    ran = build_shared(layout.c_source, library, include)
-    if ran.returncode != 0:
-        raise ToolError(f"error: cannot build the generated C of {layout.module}: {_first_error(ran.output)}")
-    return CMachine(import_extension(library, name))
-
-
-def build_data_c(layout: Layout, ir: DataIR, build: Path, name: str) -> DataCMachine:
-    """Build the generated C of the machine with data of `layout` with its adapter into `build` and import it as
+    """Build the generated C of the machine of `layout` with its adapter into `build` and import it as
     the module `name`; the adapter includes the generated source, which is compiled once, with it."""
     given = {
         "m": ir,
@@ -190,14 +126,14 @@ def build_data_c(layout: Layout, ir: DataIR, build: Path, name: str) -> DataCMac
         "flags": flag_definitions(ir),
     }
     python_side, machine_side = build / f"{name}.c", build / f"{ir.module}_ext_bits.c"
-    python_side.write_text(render_template("data_extension.c.j2", **given), encoding="utf-8")
-    machine_side.write_text(render_template("data_extension_bits.c.j2", **given), encoding="utf-8")
+    python_side.write_text(render_template("extension.c.j2", **given), encoding="utf-8")
+    machine_side.write_text(render_template("extension_bits.c.j2", **given), encoding="utf-8")
     library = build / f"{name}.so"
     include = ("-ffp-contract=off", "-I", str(layout.c_source.parent), "-I", str(python_headers()), str(python_side))
     ran = build_shared(machine_side, library, include)
     if ran.returncode != 0:
         raise ToolError(f"error: cannot build the generated C of {layout.module}: {_first_error(ran.output)}")
-    return DataCMachine(import_extension(library, name))
+    return CMachine(import_extension(library, name))
 
 
 def _first_error(output: str) -> str:

@@ -7,70 +7,48 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from mlca_verify.codegen.data_ir import DataIR, build_data_ir
-from mlca_verify.codegen.ir import GENERATOR_NAME, MachineIR, build_ir, require_first_match
-from mlca_verify.codegen.render import TEMPLATE_DIR, render, render_data
+from mlca_verify.codegen.ir import GENERATOR_NAME, MachineIR, build_ir
+from mlca_verify.codegen.render import TEMPLATE_DIR, render
 from mlca_verify.errors import CodegenError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import GENERATED_GLOB
-from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.datachecks import completeness
 from mlca_verify.logic.induction import Limits
+from mlca_verify.model import Machine
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.version import __version__
 
-__all__ = ["Drift", "data_ir", "drift", "foreign", "generate", "machine_ir", "source_of", "write"]
+__all__ = ["Drift", "drift", "foreign", "generate", "machine_ir", "source_of", "write"]
 
 
-def _gaps(checker: Checker) -> list[str]:
-    """The states where no transition is enabled for some inputs."""
-    enc = checker.enc
-    return [s for s, gap in enc.gaps.items() if enc.solver.check(gap) != "unsat"]
-
-
-def _proved_invariants(checker: Checker) -> frozenset[str]:
-    """The invariants the engine proves: only those become a contract of the step and a duty of the monitor in
-    conform's runs (an invariant the spec claims but the engine shows violated is `check`'s finding, and the
-    code that follows the spec breaks it too)."""
-    return frozenset(i.id for i in checker.machine.invariants if checker.invariant(i).verdict == "holds")
-
-
-def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
-    """The IR of a loaded spec; the spec path is recorded relative to the folder that holds `out_dir`."""
-    require_first_match(spec.machine)
-    checker = Checker(spec.machine)  # one exploration of the machine: its gaps, reachable states and invariants
-    gaps = _gaps(checker)
-    if gaps and spec.machine.semantics == "first-match":
+def require_first_match(machine: Machine) -> None:
+    """Refuse a nondeterministic machine (before any work on it): code needs one next state."""
+    if machine.semantics != "first-match":
         raise CodegenError.at(
-            spec.machine.loc,
-            f"machine '{spec.machine.name}' has gaps (otherwise = \"undefined\" and no "
-            f"transition enabled for some inputs in {', '.join(gaps)}); generated code needs a defined next state",
+            machine.loc,
+            f"machine '{machine.name}' is nondeterministic (semantics = \"any-enabled\"); "
+            "code is generated only for first-match machines",
         )
-    base = out_dir.resolve().parent
-    rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
-    reachable = tuple(s for s in spec.machine.states if s in checker.reach.dist)
-    return build_ir(spec.machine, rel, spec.sha256, __version__, reachable, proved=_proved_invariants(checker))
 
 
 def generate(spec: LoadedSpec, out_dir: Path, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
     """Relative path (under `out_dir`) -> text, for every file generated from `spec`."""
-    if spec.machine.has_data:
-        return render_data(data_ir(spec, out_dir), template_dir)
     return render(machine_ir(spec, out_dir), template_dir)
 
 
-def data_ir(spec: LoadedSpec, out_dir: Path) -> DataIR:
-    """The IR of a machine with data; the spec path is recorded as `machine_ir` records it."""
-    base = out_dir.resolve().parent
-    rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
+def machine_ir(spec: LoadedSpec, out_dir: Path) -> MachineIR:
+    """The IR of a loaded spec; the spec path is recorded relative to the folder that holds `out_dir`."""
     m = spec.machine
+    require_first_match(m)
     if m.otherwise == "undefined" and completeness(m, Limits()) != "holds":
         raise CodegenError.at(
             m.loc,
             f"machine '{m.name}' may reach a step with no transition enabled (otherwise = \"undefined\"; "
             "`mlca-verify check` shows the run); generated code needs a defined next state",
         )
-    return build_data_ir(m, m.name.lower(), rel, spec.sha256, f"{GENERATOR_NAME} {__version__}")
+    base = out_dir.resolve().parent
+    rel = Path(os.path.relpath(Path(spec.path).resolve(), base)).as_posix()
+    return build_ir(m, m.name.lower(), rel, spec.sha256, f"{GENERATOR_NAME} {__version__}")
 
 
 def write(files: dict[str, str], out_dir: Path) -> list[tuple[Path, bool]]:

@@ -1,4 +1,4 @@
-"""Expressions of a machine with data as ACSL, the logic the generated C's contracts are written in.
+"""Expressions of a machine as ACSL, the logic the generated C's contracts are written in.
 
 The logic reads the same view as the code (`lower`), but as values: the context `c`, the inputs `i` and the
 params `p` are structs, not pointers. Booleans are boolean terms (read as predicates where one is due); ints are

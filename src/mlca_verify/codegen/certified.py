@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering
-from mlca_verify.codegen.data_ir import binary64
+from mlca_verify.codegen.ir import binary64
 from mlca_verify.logic.symbolic import input_only
 from mlca_verify.model import Expr, Input, Machine, Prev, Type, own, prevs_of
 
@@ -264,7 +264,7 @@ def certify(
 def ranges(m: Machine, c: str | None, p: str, pointer: bool) -> str:
     """The int variables (none without `c`) and int params in their ranges, over `c` and `p` (pointers or
     struct values). The real params' ranges are left out, as in the step's own contract: a binary64 term among
-    the hypotheses makes z3 bit-blast (see `codegen.data_ir.binary64`)."""
+    the hypotheses makes z3 bit-blast (see `codegen.ir.binary64`)."""
     dot = "->" if pointer else "."
     parts = [
         f"{int(v.range[0])} <= {c}{dot}{v.name} <= {int(v.range[1])}"

@@ -1,182 +1,513 @@
-"""A language-neutral intermediate form of a deterministic machine, ready for any renderer.
-
-Per state, the branches that apply there in priority order (global `from = "*"` transitions included), then
-the default (`otherwise = "stay"`). Renderers never re-derive semantics from the spec; they print this.
-"""
+"""The intermediate form of a machine: every expression already lowered to C and to Python (see `lower`),
+per state the branches in priority order, per variable its update on each transition and every step.
+The templates print it; they never re-derive semantics from the spec."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from fractions import Fraction
 
-from mlca_verify.codegen.simplify import fold, in_context
-from mlca_verify.errors import CodegenError
-from mlca_verify.logic.solver import Solver
-from mlca_verify.model import Const, Expr, Invariant, Machine, StateIn, inputs_of
+from mlca_verify.codegen.acsl import AcslLowering, context_free
+from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, output_type, real_literal
+from mlca_verify.codegen.rounded import rounded_parts
+from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
+from mlca_verify.codegen.tidy import known_false, tidy, without_known
+from mlca_verify.logic.kept import kept_ranges
+from mlca_verify.model import (
+    Const,
+    Expr,
+    Machine,
+    Not,
+    Num,
+    Type,
+    Var,
+    nodes,
+    prevs_of,
+    show,
+    stateful_definitions,
+    substitute,
+)
+from mlca_verify.model import Definition as SpecDefinition
 
-GENERATOR_NAME = "mlca-verify"
+
+@dataclass(frozen=True)
+class Code:
+    """One expression in both languages, with the spec's text for comments."""
+
+    c: str
+    py: str
+    text: str
+    acsl: str = ""  # the same value in the contracts' logic (see `acsl`)
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    ctype: str
+    pytype: str
+    doc: str
+    cite: str
+    unit: str = ""
+    default: Code | None = None  # a param's default, a variable's initial value
+    low: Code | None = None
+    high: Code | None = None
+    kept: bool = True  # a variable's range: kept by every step from a context in range (`logic.kept`)
+
+
+@dataclass(frozen=True)
+class Definition:
+    name: str
+    ctype: str
+    pytype: str
+    code: Code
+    doc: str
+    cite: str
+    exact: bool = True  # its logic function has a body: it computes on no real itself (see `binary64`)
+    free: bool = False  # its logic function takes no context (see `acsl.context_free`)
+    within: str = ""  # an output's declared range, as the header's comment says it: "in [0, 5.0]"
+
+
+@dataclass(frozen=True)
+class SharedShape:
+    """One function for definitions that are the same rule over different samples."""
+
+    index: int
+    ctype: str
+    pytype: str
+    args: tuple[tuple[str, str, str], ...]  # name, C type, Python type
+    code: Code
+    users: tuple[str, ...]
+    exact: bool = True
 
 
 @dataclass(frozen=True)
 class Branch:
+    number: int  # the transition's position in the spec, from 1: what `fired` holds
     transition: str
-    guard: Expr  # the spec's guard (contracts)
-    code: Expr  # the same condition in its first-match context (code)
     target: str
+    guard: Code
     cite: str
 
 
 @dataclass(frozen=True)
-class StateCase:
+class Case:
+    """A mode's transitions in priority order. The code writes `code`: the first `written` of them, but for a
+    guard that repeats an earlier one of the mode (never taken there: `repeats` names each with the one it
+    repeats) or is false as written (`never`). When `closes`, the last written is enabled whenever the ones
+    before it are not (its guard negates an earlier one, or is `true`), so it is the chain's `else` and nothing
+    after it is reachable. The contracts keep every branch."""
+
     state: str
     index: int
-    cite: str
-    branches: tuple[Branch, ...]  # every transition that leaves the state, in priority order (the contracts)
-    tested: tuple[Branch, ...] = ()  # those the code tests after the hoisted ones (see `_tested`)
-    closed: bool = False  # the last of `tested` always fires: no `otherwise`
+    branches: tuple[Branch, ...]
+    written: int = 0
+    closes: bool = False
+    repeats: tuple[tuple[Branch, Branch], ...] = ()
+    never: tuple[Branch, ...] = ()  # a guard its own text makes false (see `tidy`)
+    hoisted: int = 0  # the leading branches the step tests before telling the modes apart (see `MachineIR.hoisted`)
+    dropped: tuple[Branch, ...] = ()  # those just before the chain's end that go where it goes (see `_trimmed`)
+
+    @property
+    def code(self) -> tuple[Branch, ...]:
+        """What the C step tests, after the hoisted branches."""
+        dropped = {id(b) for b in self.dropped}
+        return tuple(b for b in self.chain[self.hoisted :] if id(b) not in dropped)
+
+    @property
+    def chain(self) -> tuple[Branch, ...]:
+        """What a chain that tells every transition apart tests (the Python's, and the C adapter's that reports
+        the transition that fired): every branch written but those never taken."""
+        left_out = {id(b) for b, _ in self.repeats} | {id(b) for b in self.never}
+        return tuple(b for b in self.branches[: self.written] if id(b) not in left_out)
+
+    @property
+    def end(self) -> str:
+        """The mode the chain ends in when no branch it tests is taken: its own, or the closing branch's target."""
+        return self.branches[self.written - 1].target if self.closes else self.state
+
+
+def closing(guards: Sequence[Expr]) -> int | None:
+    """The first guard that holds whenever the guards before it do not: `true`, or the negation of an earlier
+    one (either way round). Read from the text alone, so it is never wrong; a guard that only z3 could show
+    complete is written as the others are."""
+    for k, g in enumerate(guards):
+        if g == Const(True) or any(g == Not(e) or e == Not(g) for e in guards[:k]):
+            return k
+    return None
+
+
+def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr], hoisted: int) -> Case:
+    last = closing(guards[hoisted:])
+    written = len(branches) if last is None else hoisted + last + 1
+    first = {g: branches[k] for k, g in reversed(list(enumerate(guards[:written])))}
+    repeats = tuple((b, first[g]) for b, g in zip(branches[:written], guards, strict=False) if first[g] is not b)
+    never = tuple(b for b, g in zip(branches[:written], guards, strict=False) if g == Const(False))
+    return Case(state, index, branches, written, last is not None, repeats, never, hoisted)
+
+
+_CALL = re.compile(r"\w\(")  # a function called in C code
+
+
+def _trimmed(case: Case) -> Case:
+    """A direct step's chain without the branches just before its end that go where the end goes (the same
+    statement in an `if` and its `else`: cppcheck's duplicateBranch), but for one that calls a function (the C
+    of a definition it alone reads would then be defined and never called). The closing branch stays, as the
+    `else`; the contracts, the Python and the adapter's report of the transition that fired keep them all."""
+    code, end = case.code, case.end
+    kept = len(code) - 1 if case.closes else len(code)
+    while kept > 0 and code[kept - 1].target == end and not _CALL.search(code[kept - 1].guard.c):
+        kept -= 1
+    return replace(case, dropped=code[kept : len(code) - 1 if case.closes else None])
+
+
+def _hoisted(m: Machine, guards: Sequence[Expr]) -> int:
+    """How many leading transitions leave every mode for the fallback mode on a condition that is not constant,
+    none repeating or completing the ones before it (a direct step tests them before the modes; see `MachineIR`)."""
+    count = 0
+    for t, g in zip(m.transitions, guards, strict=True):
+        leading = t.sources is None and t.target == m.fallback_state and not isinstance(g, Const)
+        if not leading or g in guards[:count] or closing(guards[: count + 1]) == count:
+            break
+        count += 1
+    return count
 
 
 @dataclass(frozen=True)
-class InputIR:
-    name: str
-    doc: str
-    cite: str
+class Update:
+    variable: str
+    ctype: str
+    on: tuple[tuple[int, Code], ...]  # (transition number, value) where a transition assigns it
+    every: Code | None
 
 
 @dataclass(frozen=True)
-class InvariantIR:
+class Register:
+    """What prev(e) reads: e over a context, kept after each step."""
+
+    index: int
+    ctype: str
+    pytype: str
+    code: Code
+
+
+@dataclass(frozen=True)
+class Rounded:
+    """A part of a guard, update, output or register that computes on reals, in a C function of its own (see
+    `rounded`): `code.c` is its body, over the same view as a definition's."""
+
+    index: int
+    ctype: str
+    code: Code
+    free: bool
+    users: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Property:
+    index: int
     id: str
-    expr: Expr
+    code: Code
     cite: str
-    code: Expr  # the same expression with constant parts folded
-    proved: bool  # expected to hold and proved: stated as a contract on the step function, not only monitored
-    implied: bool = False  # `state in {every state}`: the monitor's state check already decides it
-    expected: bool = True  # the spec expects it to hold
 
 
 @dataclass(frozen=True)
 class MachineIR:
     name: str
-    module: str  # lower-case stem: <module>_fsm.py, <module>_fsm.h, C function prefix
-    macro: str  # upper-case prefix of C constants and the header guard
+    module: str
+    macro: str
     doc: str
     cite: str
     spec_path: str
     spec_sha256: str
     generator: str
     initial: str
-    fallback: str  # the state a state value that names no state goes to
+    fallback: str  # the mode a context whose mode names no state restarts in
     states: tuple[str, ...]
-    inputs: tuple[InputIR, ...]
-    cases: tuple[StateCase, ...]
-    # how many leading branches every state shares (`from = "*"` transitions to the fallback state): the code
-    # tests them once, before the switch; out-of-range states still end in the fallback state
-    hoisted: int
-    step_reads_inputs: bool  # C needs `(void)in;` where no condition reads an input
-    invariants_read_inputs: bool
-    otherwise_cite: str
-    invariants: tuple[InvariantIR, ...]
-    reachable: tuple[str, ...]
+    inputs: tuple[Field, ...]
+    signals: tuple[Field, ...]
+    params: tuple[Field, ...]
+    variables: tuple[Field, ...]
+    definitions: tuple[Definition, ...]
+    outputs: tuple[Definition, ...]
+    cases: tuple[Case, ...]
+    updates: tuple[Update, ...]
+    registers: tuple[Register, ...]
+    invariants: tuple[Property, ...]
+    transitions: tuple[tuple[int, str, str], ...] = field(default_factory=tuple)  # number, id, target
+    helpers: frozenset[str] = frozenset()  # the C helpers the code calls: min_d, max_i, div, ...
+    shapes: tuple[SharedShape, ...] = ()
+    used: frozenset[str] = frozenset()  # the definitions whose functions the code calls
+    logic: frozenset[str] = frozenset()  # those the contracts read too (a branch the code leaves out included)
+    logic_shapes: tuple[SharedShape, ...] = ()  # the shared rules of `logic`
+    guards: tuple[Code, ...] = ()  # of each transition, by its number from 1
+    rounded: tuple[Rounded, ...] = ()  # the parts that compute on reals, each a function (see `rounded`)
+    # a context that is its mode alone (no variable, no register): each mode's chain yields the next mode itself,
+    # with no number of the transition to look up its updates by, and the step never reads a first-step flag
+    direct: bool = False
+    # how many leading `from = "*"` transitions to the fallback mode a direct step tests once, before telling the
+    # modes apart: a context whose mode is not a state restarts in the fallback mode too, so the order is free
+    hoisted: int = 0
+
+    @property
+    def first_flag(self) -> bool:
+        """Whether the context keeps a first-step flag: only a register (what prev() reads) needs one."""
+        return bool(self.registers)
 
 
-def require_first_match(machine: Machine) -> None:
-    """Refuse a nondeterministic machine (before any work on it): code needs one next state."""
-    if machine.semantics != "first-match":
-        raise CodegenError.at(
-            machine.loc,
-            f"machine '{machine.name}' is nondeterministic (semantics = \"any-enabled\"); "
-            "code is generated only for first-match machines",
+GENERATOR_NAME = "mlca-verify"
+PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
+
+
+def _literal(v: Fraction, kind: Type) -> Code:
+    """A constant of the spec (a default, a range end) as both languages write it."""
+    text = real_literal(v) if kind == "real" else str(int(v))
+    return Code(text, text, str(v), AcslLowering.real(v) if kind == "real" else text)
+
+
+def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> MachineIR:
+    macro = module.upper()
+    names = names_of(m, module, macro)
+    c, py = Lowering(names, "c"), Lowering(names, "py")
+    logic = AcslLowering(names, context_free(m))
+    prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
+    computed = {o.name: o.expr for o in m.outputs}  # a register of an output keeps what the output computes
+    register_args = [substitute(p.arg, computed) for p in prevs]
+    stateful = stateful_definitions(m.definitions, (v.name for v in m.variables))
+    parts, at = rounded_parts(m, names.types, stateful, register_args)
+    stated_c = Lowering(names, "c", {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()})
+    call = {p.index: f"{module}_lb64_{p.index}({'i, p' if p.free else 'c, i, p'})" for p in parts}
+    stated_l = AcslLowering(names, logic.free, {n: call[k] for n, k in at.items()})
+    c_prev = {p: f"prev{k}" for p, k in prevs.items()}
+
+    def code(e: Expr, with_prev: bool = False) -> Code:
+        prev = c_prev if with_prev else None
+        return Code(c.go(e, prev), py.go(e, prev), show(e), "" if with_prev else logic.go(e))
+
+    def stated(e: Expr, kind: Type) -> Code:
+        """What the step's contract states: the parts that compute on reals read through their functions."""
+        if id(e) in at and parts[at[id(e)]].kind == kind:  # the whole value, converted inside the function
+            return Code(stated_c.go(e), py.as_type(e, kind, None), show(e), stated_l.go(e))
+        return Code(
+            stated_c.as_type(e, kind, None), py.as_type(e, kind, None), show(e), stated_l.as_type(e, kind, None)
         )
 
+    def number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
+        low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
+        return Field(
+            item.name,  # type: ignore[attr-defined]
+            c_type(kind, bounds),
+            PY_TYPES[kind],
+            item.doc,  # type: ignore[attr-defined]
+            item.cite,  # type: ignore[attr-defined]
+            low=low,
+            high=high,
+            **extra,  # type: ignore[arg-type]
+        )
 
-def build_ir(
-    machine: Machine,
-    spec_path: str,
-    spec_sha256: str,
-    version: str,
-    reachable: tuple[str, ...],
-    *,
-    proved: frozenset[str] | None = None,
-) -> MachineIR:
-    """The IR of a first-match, gap-free machine (anything else is refused with a `CodegenError`); `proved` names
-    the invariants the engine proves (None: every one the spec expects to hold), the only ones the step's contract
-    states."""
-    require_first_match(machine)
-    solver = Solver(machine.input_names)
-    chains = []
-    for state in machine.states:
-        out = [t for t in machine.transitions if t.applies_to(state)]
-        codes = in_context([t.guard for t in out], solver, machine, state)
-        chains.append(tuple(Branch(t.id, t.guard, c, t.target, t.cite) for t, c in zip(out, codes, strict=True)))
-    hoisted = _hoisted(machine, chains[0])
-    cases = [
-        StateCase(state, index, machine.cite, branches, *_tested(branches[hoisted:], state))
-        for index, (state, branches) in enumerate(zip(machine.states, chains, strict=True))
-    ]
-    module = machine.name.lower()
-    return MachineIR(
-        name=machine.name,
+    shapes, uses = shared_shapes(m)
+    keeps = kept_ranges(m)
+    numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
+
+    def chain(state: str, index: int) -> Case:
+        """The mode's branches, each guard written without what the earlier guards' being false decides."""
+        known: list[Expr] = []
+        branches, guards = [], []
+        for t in m.outgoing(state):
+            guard = tidy(without_known(t.guard, known), names.types)
+            code = replace(stated(guard, "bool"), text=show(t.guard))
+            branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite))
+            guards.append(guard)
+            known += known_false(t.guard)
+        return _case(state, index, tuple(branches), guards, hoisted)
+
+    direct = not m.variables and not prevs
+    hoisted = _hoisted(m, [tidy(without_known(t.guard, []), names.types) for t in m.transitions]) if direct else 0
+    cases = tuple(chain(s, k) for k, s in enumerate(m.states))
+    if direct:
+        cases = tuple(_trimmed(case) for case in cases)
+    updates = tuple(
+        Update(
+            v.name,
+            c_type(v.type, v.range),
+            tuple(
+                (numbers[t.id], stated(u.expr, v.type))
+                for t in m.transitions
+                for u in t.updates
+                if u.variable == v.name and u.expr != (v.every or Var(v.name))  # else: what the step does anyway
+            ),
+            stated(v.every, v.type) if v.every is not None else None,
+        )
+        for v in m.variables
+    )
+    ir = MachineIR(
+        name=m.name,
         module=module,
-        macro=machine.name.upper(),
-        doc=machine.doc,
-        cite=machine.cite,
+        macro=macro,
+        doc=m.doc,
+        cite=m.cite,
         spec_path=spec_path,
-        spec_sha256=spec_sha256,
-        generator=f"{GENERATOR_NAME} {version}",
-        initial=machine.initial,
-        fallback=machine.fallback_state,
-        states=machine.states,
-        inputs=tuple(InputIR(i.name, i.doc, i.cite) for i in machine.inputs),
-        cases=tuple(cases),
+        spec_sha256=sha,
+        generator=generator,
+        initial=m.initial,
+        fallback=m.fallback_state,
+        states=m.states,
+        inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
+        signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
+        params=tuple(number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
+        variables=tuple(
+            number_field(
+                v, v.type, v.range, default=_literal(v.initial, v.type), kept=v.name in keeps or v.type != "int"
+            )
+            for v in m.variables
+        ),
+        definitions=tuple(_definition(d, c, py, logic, uses.get(d.name)) for d in m.definitions),
+        shapes=tuple(_shape(sh, names, uses) for sh in shapes),
+        outputs=tuple(
+            Definition(
+                o.name,
+                output_type(o.type, o.range),
+                PY_TYPES[o.type],
+                stated(o.expr, o.type),
+                o.doc,
+                o.cite,
+                within=_within(o.range, o.type),
+            )
+            for o in m.outputs
+        ),
+        cases=cases,
         hoisted=hoisted,
-        step_reads_inputs=any(inputs_of(c) for c in _conditions(cases, hoisted)),
-        invariants_read_inputs=any(inputs_of(fold(i.expr, solver)) for i in machine.invariants),
-        otherwise_cite=machine.cite,
-        invariants=tuple(_invariant(i, fold(i.expr, solver), machine.states, proved) for i in machine.invariants),
-        reachable=reachable,
+        direct=direct,
+        updates=updates,
+        registers=tuple(_register(k, arg, c, stated) for k, arg in enumerate(register_args)),
+        invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
+        transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
+        guards=tuple(stated(t.guard, "bool") for t in m.transitions),
+        rounded=tuple(
+            Rounded(p.index, c_type(p.kind), Code(c.as_type(p.expr, p.kind, None), "", show(p.expr)), p.free, p.users)
+            for p in parts
+        ),
+    )
+    written = tuple(
+        replace(case, branches=(*case.branches[: case.hoisted], *case.code), written=case.hoisted + len(case.code),
+                repeats=(), never=(), dropped=())
+        for case in ir.cases
+    )  # fmt: skip
+    in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts
+    used = _called(ir, repr(replace(in_code, definitions=())))
+    contracts = _called(ir, repr(replace(ir, definitions=())))  # by the code or the contracts (every branch)
+    code_shapes = tuple(sh for sh in ir.shapes if set(sh.users) & used)
+    text = repr(replace(in_code, definitions=tuple(d for d in ir.definitions if d.name in used), shapes=code_shapes))
+    helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in text)
+    return replace(
+        ir,
+        helpers=helpers,
+        used=used,
+        logic=contracts,
+        shapes=code_shapes,
+        logic_shapes=tuple(sh for sh in ir.shapes if set(sh.users) & contracts),
     )
 
 
-def _hoisted(machine: Machine, first: tuple[Branch, ...]) -> int:
-    """How many leading `from = "*"` transitions to the fallback state the code tests once, before telling the
-    states apart (each with a condition that is not constant)."""
-    hoisted = 0
-    for t, branch in zip(machine.transitions, first, strict=False):
-        if t.sources is not None or t.target != machine.fallback_state or isinstance(branch.code, Const):
-            break
-        hoisted += 1
-    return hoisted
+def _called(ir: MachineIR, text: str) -> frozenset[str]:
+    """The definitions whose functions `text` calls, and those their bodies call."""
+    called: set[str] = set()
+    todo = [d.name for d in ir.definitions if f"{ir.module}_def_{d.name}(" in text]
+    while todo:
+        name = todo.pop()
+        if name not in called:
+            called.add(name)
+            body = next(d.code.c for d in ir.definitions if d.name == name)
+            todo += [d.name for d in ir.definitions if f"{ir.module}_def_{d.name}(" in body]
+    return frozenset(called)
 
 
-def _conditions(cases: list[StateCase], hoisted: int) -> Iterator[Expr]:
-    """Every condition the step's code tests (a branch that always fires where reached is tested by none)."""
-    yield from (b.code for b in cases[0].branches[:hoisted]) if cases else ()
-    for case in cases:
-        yield from (b.code for b in case.tested[: len(case.tested) - 1 if case.closed else None])
+def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
+    if bounds is None:
+        return ""
+    low, high = (_literal(x, kind).c for x in bounds)
+    return f"in [{low}, {high}]"
 
 
-def _tested(branches: tuple[Branch, ...], state: str) -> tuple[tuple[Branch, ...], bool]:
-    """The branches the code tests, in order: none that never fires where the chain reaches it, none after one
-    that always fires there, and none just before the chain's end that goes where the end goes (the `otherwise`,
-    which stays in `state`, or the last branch when it always fires: cppcheck's duplicateBranch); and whether the
-    last always fires (the chain then has no `otherwise`)."""
-    tested: list[Branch] = []
-    closed = False
-    for b in branches:
-        if b.code == Const(False):
-            continue
-        tested.append(b)
-        if b.code == Const(True):
-            closed = True
-            break
-    end = tested[-1].target if closed else state
-    kept = len(tested) - 1 if closed else len(tested)
-    while kept > 0 and tested[kept - 1].target == end:
-        kept -= 1
-    return (*tested[:kept], *tested[len(tested) - 1 :]) if closed else tuple(tested[:kept]), closed
+def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code]) -> Register:
+    kind = c.type_of(arg)
+    return Register(index, c_type(kind), PY_TYPES[kind], stated(arg, kind))
 
 
-def _invariant(inv: Invariant, code: Expr, states: tuple[str, ...], proved: frozenset[str] | None) -> InvariantIR:
-    implied = isinstance(code, StateIn) and set(code.states) == set(states)
-    holds = inv.expect == "holds" and (proved is None or inv.id in proved)
-    return InvariantIR(inv.id, inv.expr, inv.cite, code, holds, implied, inv.expect == "holds")
+HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
+
+
+def _gated(body: Code, valid: Code, if_invalid: bool) -> Code:
+    """A boolean that reads samples: its `if_invalid` value unless every one is valid (tested first)."""
+    c, py, acsl = ("true", "True", "\\true") if if_invalid else ("false", "False", "\\false")
+    return Code(
+        f"(({valid.c}) ? {body.c} : {c})",
+        f"({body.py} if ({valid.py}) else {py})",
+        body.text,
+        f"(({valid.acsl}) ? {body.acsl} : {acsl})",
+    )
+
+
+def _validity(signals: Sequence[str], c: Lowering, py: Lowering, logic: Lowering) -> Code:
+    return Code(
+        " && ".join(c.valid(s) for s in signals),
+        " and ".join(py.valid(s) for s in signals),
+        "",
+        " && ".join(logic.valid(s) for s in signals),
+    )
+
+
+def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowering, use: Use | None) -> Definition:
+    if use is not None:
+        args_c, args_py, args_l = (", ".join(f"{v}{s}" for s in use.signals) for v in ("i->", "i.", "i."))
+        call = Code(
+            f"{c.n.prefix}_shape{use.shape}({args_c}, p)",
+            f"_shape{use.shape}({args_py}, p)",
+            show(d.expr),
+            f"{c.n.prefix}_lshape{use.shape}({args_l}, p)",
+        )
+        return Definition(d.name, c_type(d.type), PY_TYPES[d.type], call, d.doc, d.cite, free=d.name in logic.free)
+    exact = not binary64(d.expr, c.n.types)
+    body = Code(
+        c.as_type(d.expr, d.type, None),
+        py.as_type(d.expr, d.type, None),
+        show(d.expr),
+        logic.as_type(d.expr, d.type, None),
+    )
+    if d.type == "bool" and d.signals:
+        body = _gated(body, _validity(d.signals, c, py, logic), d.if_invalid)
+    return Definition(d.name, c_type(d.type), PY_TYPES[d.type], body, d.doc, d.cite, exact, d.name in logic.free)
+
+
+def binary64(e: Expr, types: Mapping[str, Type]) -> bool:
+    """Whether `e` itself computes on reals. Its logic function is then left without a body: z3, through Why3,
+    decides binary64 by bit-blasting and runs out of memory on any goal that has such a body among its
+    hypotheses (measured on MLCA-T's gap rules), so the C function's link to it is left to the exhaustive and
+    sequence comparisons, which check that C bit for bit against z3's own semantics of the spec."""
+    return any(
+        (isinstance(x, Num) and (x.real or x.value.denominator != 1))
+        or (isinstance(x, Var) and types.get(x.name) == "real")
+        for x in nodes(e)
+    )
+
+
+def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
+    kinds = {**names.kinds, **{a: "arg" for a, _, _ in sh.args}}
+    types = {**names.types, **{a: kind for a, kind, _ in sh.args}}
+    ranges = {**names.ranges, **{a: bounds for a, _, bounds in sh.args}}
+    view = replace(names, kinds=kinds, types=types, ranges=ranges)
+    c, py = Lowering(view, "c"), Lowering(view, "py")
+    logic = AcslLowering(view)
+    code = Code(
+        c.as_type(sh.expr, sh.kind, None),
+        py.as_type(sh.expr, sh.kind, None),
+        show(sh.expr),
+        logic.as_type(sh.expr, sh.kind, None),
+    )
+    if sh.guarded:
+        code = _gated(code, _validity([a for a, _, _ in sh.args], c, py, logic), sh.if_invalid)
+    args = tuple((a, c_type(kind, bounds), PY_TYPES[kind]) for a, kind, bounds in sh.args)
+    users = tuple(sorted(name for name, use in uses.items() if use.shape == sh.index))
+    exact = not binary64(sh.expr, types)
+    return SharedShape(sh.index, c_type(sh.kind), PY_TYPES[sh.kind], args, code, users, exact)

@@ -1,4 +1,4 @@
-"""Expressions of a machine with data lowered to C99 and to Python with the same operations in the same order.
+"""Expressions of a machine lowered to C99 and to Python with the same operations in the same order.
 
 Both languages read one view of the machine: the context `c` (mode and variables, before or after the step), the
 inputs `i` (booleans and signals) and the params `p`. A definition is a function of that view, so a guard reads

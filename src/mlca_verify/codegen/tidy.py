@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from mlca_verify.codegen.simplify import conjoin, conjuncts
+from mlca_verify.codegen.joins import conjoin, conjuncts
 from mlca_verify.logic.concrete import COMPARE
 from mlca_verify.model import BinOp, Cmp, Const, Expr, Ite, Not, Num, Type, type_of
 
@@ -83,6 +83,8 @@ def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
     """`e` with what its own text decides decided (see the module's docstring)."""
     if isinstance(e, Not):
         arg = tidy(e.arg, types)
+        if isinstance(arg, Not):  # not not a is a
+            return arg.arg
         return Const(not arg.value) if isinstance(arg, Const) else e if arg is e.arg else Not(arg)
     if isinstance(e, BinOp):
         return _connective(e, tidy(e.left, types), tidy(e.right, types))

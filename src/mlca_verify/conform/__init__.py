@@ -8,9 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.codegen import data_ir, drift, generate, machine_ir
-from mlca_verify.conform.bool_code import SUITE, Subject
-from mlca_verify.conform.data_code import DATA_SUITE, DataSubject
+from mlca_verify.codegen import drift, generate, machine_ir
+from mlca_verify.conform.generated_code import SUITE, Subject
 from mlca_verify.conform.outcome import CHECKS, CheckOutcome, run_checks
 from mlca_verify.errors import UsageError
 from mlca_verify.layout import Layout
@@ -73,15 +72,8 @@ def conform(
     template_dir: Path | None = None,
 ) -> Conformance:
     """Run `checks` on the code for `spec` found in `generated`; `report` sees each outcome as it lands."""
-    if spec.machine.has_data:
-        data = data_ir(spec, generated)
-        layout, fresh = _present(spec, generated, data.module, template_dir, report)
-        with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
-            subject = DataSubject(spec.machine, data, layout, Path(build), sequences)
-            return Conformance(spec, [fresh, *run_checks(subject, checks, DATA_SUITE, report)])
     ir = machine_ir(spec, generated)
     layout, fresh = _present(spec, generated, ir.module, template_dir, report)
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:
-        return Conformance(
-            spec, [fresh, *run_checks(Subject(spec, ir, layout, Path(build), sequences), checks, SUITE, report)]
-        )
+        subject = Subject(spec.machine, ir, layout, Path(build), sequences)
+        return Conformance(spec, [fresh, *run_checks(subject, checks, SUITE, report)])

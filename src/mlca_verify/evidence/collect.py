@@ -1,10 +1,8 @@
 """Collect the safety-case evidence for one machine: proofs, conformance of the generated code, tool versions,
 hashes, traceability, readings of the source side by side, and a GSN-style argument over all of it.
 
-For a machine with data (params, signals, variables) the bundle adds the proofs' engines and certificates, the
-params, signals, variables, definitions and outputs, and the environment assumptions the proofs rely on; its
-generated code is checked by `conform`'s checks for machines with data. The closed loop does not drive such a
-machine's code yet, so that goal stays undeveloped.
+For a machine with data (params, signals, variables) the bundle also holds the proofs' engines and certificates,
+the params, signals, variables, definitions and outputs, and the environment assumptions the proofs rely on.
 
 Everything collected is deterministic for the same inputs (no durations, sorted goal lists, fixed seeds); the
 one timestamp is `generated_at`, which SOURCE_DATE_EPOCH fixes too.
@@ -24,8 +22,8 @@ from typing import Any
 import z3
 
 from mlca_verify.check_report import cube_text
-from mlca_verify.codegen import data_ir, machine_ir
-from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, DATA_SHARED, DATA_TEMPLATES, TEMPLATE_DIR, TEMPLATES
+from mlca_verify.codegen import machine_ir
+from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, SHARED_TEMPLATES, TEMPLATE_DIR, TEMPLATES
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.outcome import CheckOutcome
 from mlca_verify.diagram import to_dot
@@ -170,8 +168,7 @@ def document(ev: Evidence) -> dict[str, Any]:
         "readings": readings(ev),
         "argument": argument(ev),
     }
-    if ev.spec.machine.has_data:  # only then: the bundle of a machine without data stays as it was
-        doc["data_machine"] = data_machine(ev)
+    doc["data_machine"] = data_machine(ev)
     if ev.physics:
         doc["physical_safety"] = ev.physics
     if ev.coverage:
@@ -205,9 +202,7 @@ def _files(paths: list[Path]) -> list[dict[str, str]]:
 def inputs(ev: Evidence) -> list[dict[str, str]]:
     specs = [Path(ev.spec.path), *(Path(r.path) for r in ev.readings)]
     specs += [Path(c.other.loc.file) for c in ev.spec.machine.comparisons]
-    names = (
-        [*DATA_TEMPLATES.values(), CERTIFIED_TEMPLATE, *DATA_SHARED] if ev.spec.machine.has_data else TEMPLATES.values()
-    )
+    names = [*TEMPLATES.values(), CERTIFIED_TEMPLATE, *SHARED_TEMPLATES]
     templates = [TEMPLATE_DIR / name for name in names]
     return _files([p for p in specs if p.is_file()]) + [
         {"path": f"templates/{p.name}", "sha256": sha256(p)} for p in sorted(templates)
@@ -215,7 +210,7 @@ def inputs(ev: Evidence) -> list[dict[str, str]]:
 
 
 def generated_files(ev: Evidence) -> dict[str, Path]:
-    ir = data_ir(ev.spec, ev.generated) if ev.spec.machine.has_data else machine_ir(ev.spec, ev.generated)
+    ir = machine_ir(ev.spec, ev.generated)
     layout = Layout(ev.generated, ir.module)
     return {kind: ev.generated / layout.relative(kind) for kind in FILES}
 
@@ -276,7 +271,7 @@ def _range(bounds: Range | None, kind: Type) -> list[str] | None:
 
 
 def data_machine(ev: Evidence) -> dict[str, Any]:
-    """The data of a machine with data, in the spec's own syntax (numbers as exact text), and for each
+    """The data of a machine (none for a boolean one), in the spec's own syntax (numbers as exact text), and for each
     environment assumption the proofs that rely on it."""
     m = ev.spec.machine
     relied: dict[str, list[str]] = {a.id: [] for a in m.assumptions}
@@ -407,7 +402,7 @@ def traceability(ev: Evidence) -> list[dict[str, Any]]:
             for kind in ("c-source", "python"):
                 code += [{"file": files[kind].as_posix(), "line": n} for n in _lines(files[kind], needle)]
         tests = ["conform: exhaustive", "conform: sequences", "conform: frama-c-wp"] if code_tested else []
-        replayed = ("invariant",) if m.has_data else ("invariant", "liveness")  # what --emit-tests replays
+        replayed = ("invariant", "range", "liveness")  # what --emit-tests replays
         if r.verdict == "violated" and prop == r.prop and r.kind in replayed:
             tests.append("check --emit-tests: replays the counterexample")
         rows.append(

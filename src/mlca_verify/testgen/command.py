@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.codegen import data_ir
-from mlca_verify.conform.data_code import random_inputs
+from mlca_verify.codegen import machine_ir
+from mlca_verify.conform.generated_code import random_inputs
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import Layout
@@ -64,14 +64,11 @@ def generate_fresh(machine: Machine, depth: int) -> Suite:
 
 
 def conformance_sequence(spec: LoadedSpec, generated: Path, steps: int = SEQUENCE_STEPS) -> list[Sample]:
-    """The first steps of `conform`'s random sequence of seed 0 (a machine with data: the same generator; without
-    data: every input true with probability 0.7, as there), which the C program also runs, host and target alike,
-    and prints for the back-to-back comparison."""
+    """The first steps of `conform`'s random sequence of seed 0 (the same generator), which the C program also
+    runs, host and target alike, and prints for the back-to-back comparison."""
     rng = random.Random(0)
     m = spec.machine
-    if not m.has_data:
-        return [{i.name: rng.random() < 0.7 for i in m.inputs} for _ in range(steps)]
-    ir = data_ir(spec, generated)
+    ir = machine_ir(spec, generated)
     names = [i.name for i in m.inputs] + [s.name for s in m.signals]
     rows = [random_inputs(ir, rng) for _ in range(steps)]
     return [
@@ -134,7 +131,7 @@ def tests(
         report.coverage.append(c_coverage(files["c"], layout.c_source, work))
         for c, source in zip(report.coverage, (layout.python, layout.c_source), strict=True):
             text = source.read_text(encoding="utf-8")
-            fill(c.gaps, text, spec.machine, suite.pairs, c.language, depth=suite.depth, unvisited=suite.unvisited)
+            fill(c.gaps, text, spec.machine, suite.pairs, depth=suite.depth, unvisited=suite.unvisited)
             say(_coverage_line(c))
     if on_target:
         report.target = target.run_on_target(files["c"], layout.c_source, work, report.host_lines)

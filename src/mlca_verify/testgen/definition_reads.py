@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from mlca_verify.codegen.simplify import conjoin, disjoin
+from mlca_verify.codegen.joins import conjoin, disjoin
 from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Transition, Var, children, nodes
 
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated

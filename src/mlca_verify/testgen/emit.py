@@ -15,7 +15,7 @@ from fractions import Fraction
 
 from mlca_verify.codegen.lower import real_literal
 from mlca_verify.codegen.render import Escaped, render_template
-from mlca_verify.conform.data_code import REAL_TOLERANCE
+from mlca_verify.conform.generated_code import REAL_TOLERANCE
 from mlca_verify.model import Machine
 from mlca_verify.testgen.search import Pair
 from mlca_verify.testgen.suite import Case, MonitorCase, Suite
@@ -87,7 +87,6 @@ def python_suite(suite: Suite, header: Header) -> str:
         "mcdc_test.py.j2",
         h=header,
         m=m,
-        data=m.has_data,
         **real_comparison(m),
         runs=runs,
         monitors=monitors,
@@ -168,7 +167,6 @@ def c_suite(suite: Suite, header: Header, sequence: Sequence[Mapping[str, object
         "mcdc_runner.c.j2",
         h=header,
         m=m,
-        data=m.has_data,
         **real_comparison(m),
         module=m.name.lower(),
         macro=m.name.upper(),

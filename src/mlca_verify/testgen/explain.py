@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from mlca_verify.model import Call, Expr, Machine, inputs_of, mentions_state, name_types, nodes, show, type_of
+from mlca_verify.model import Call, Expr, Machine, name_types, nodes, show, type_of
 from mlca_verify.testgen.coupling import coupling_reason
 from mlca_verify.testgen.measure import Gap
 from mlca_verify.testgen.search import Pair
@@ -22,9 +22,8 @@ _APPEND = re.compile(r"\.append\(\"([A-Za-z0-9_.-]+)\"\)")
 _DEFINITION = re.compile(r"_def_([A-Za-z0-9_]+)\(")
 _HELPER = re.compile(r"_((?:min|max|abs)(?:_[id])?)\(")  # the C helpers are per type: min_i on ints, min_d on reals
 _MODE_CASE = re.compile(r"c\.mode == State\.([A-Za-z0-9_]+):")  # the Python `_fired`'s case of one mode
-# a state's block of a machine without data: `if state == State.X:` in Python's `step`, `(s == M_X)` in C's
-_STATE_FUNCTION = re.compile(r"\w+_state_t \w+\(")  # a C function of a machine without data that returns a state
-_STATE_CASE = re.compile(r"\bif state == State\.([A-Za-z0-9_]+):|\(s == [A-Z0-9_]+?_([A-Za-z0-9_]+)\) \{")
+_STATE_FUNCTION = re.compile(r"\w+_state_t \w+\(")  # a C function that returns a mode (a direct step's chain)
+_STATE_CASE = re.compile(r"\(c->mode == ([A-Z0-9_]+)\) \{")  # a mode's block of a direct step
 # the C function of one mode's chain: the transition's number, or the next mode itself in a direct step
 _MODE_FUNCTION = re.compile(r"_(?:fired|to)_([A-Za-z0-9_]+)\(")
 _OTHERWISE = re.compile(r"otherwise: the mode is kept")
@@ -118,13 +117,9 @@ def saturation(machine: Machine, helper: str, depth: int) -> str:
     )
 
 
-def reasons_for(element: str, pairs: Sequence[Pair], language: str, has_data: bool) -> list[str]:
-    """The reasons of the element's conditions without a pair, the decisions the code's language evaluates."""
-    prefixes = ["guard:", "def:", "valid:", "choice:", "output:"]
-    if language == "c" and not has_data:
-        prefixes.append("chain:")
-    else:
-        prefixes.append("inv:")
+def reasons_for(element: str, pairs: Sequence[Pair]) -> list[str]:
+    """The reasons of the element's conditions without a pair, the decisions the code evaluates."""
+    prefixes = ("guard:", "def:", "valid:", "choice:", "output:", "inv:")
     found: list[str] = []
     for p in pairs:
         d = p.objective.decision
@@ -153,32 +148,16 @@ def mode_of(lines: Sequence[str], line: int, states: Sequence[str]) -> str | Non
 
 
 def _state_block(lines: Sequence[str], line: int, states: Sequence[str]) -> str | None:
-    """The state whose block of a machine without data holds the gap's line (the nearest state test above it)."""
+    """The mode whose block of a direct step holds the gap's line (the nearest mode test above it): the state
+    whose name ends the constant tested, the longest such."""
     for k in range(line - 1, -1, -1):
         case = _STATE_CASE.search(lines[k])
         if case:
-            name = case.group(1) or case.group(2)
-            return name if name in states else None
+            named = [s for s in states if case.group(1).endswith(f"_{s}")]
+            return max(named, key=len) if named else None
         if _is_header(lines[k]):
             break
     return None
-
-
-def _tested_state(lines: Sequence[str], gap: Gap, machine: Machine) -> str | None:
-    """For a machine without data, the state a gap's line tests for: `case M_X:` of the state check, `s == M_X`
-    of the monitor's; on a line that tests for several, the one at the gap's column or MC/DC condition."""
-    if machine.has_data or not 0 < gap.line <= len(lines):
-        return None
-    macro = re.escape(machine.name.upper())
-    pattern = rf"\((?:s|state) (?:==|!=) (?:{macro}_|State\.)(\w+)\)|case {macro}_(\w+):|state (?:==|!=) State\.(\w+)"
-    tests = [(m.start() + 1, next(g for g in m.groups() if g)) for m in re.finditer(pattern, lines[gap.line - 1])]
-    tests = [(column, state) for column, state in tests if state in machine.states]
-    column = re.search(r"at column (\d+)", gap.what)
-    if gap.condition is not None and gap.condition[0] < len(tests):
-        return tests[gap.condition[0]][1]
-    if column:
-        return next((state for at, state in tests if at == int(column.group(1))), None)
-    return tests[0][1] if len(tests) == 1 else None
 
 
 def _last_guard(lines: Sequence[str], line: int, machine: Machine) -> str | None:
@@ -189,18 +168,6 @@ def _last_guard(lines: Sequence[str], line: int, machine: Machine) -> str | None
     mode = mode_of(lines, line, machine.states)
     chain = machine.outgoing(mode) if mode is not None else ()
     return chain[-1].id if chain else None
-
-
-def _constant_invariants(machine: Machine) -> dict[str, str]:
-    """The invariants of a machine without data that read neither the state nor an input (`false`, `true or
-    false`), each with why its code's condition never varies."""
-    if machine.has_data:
-        return {}
-    return {
-        i.id: f"{i.id} is {show(i.expr)}, which reads neither the state nor an input: its value never varies"
-        for i in machine.invariants
-        if not inputs_of(i.expr) and not mentions_state(i.expr)
-    }
 
 
 def unvisited_reason(mode: str, depth: int) -> str:
@@ -215,7 +182,6 @@ def explain(
     source: str,
     machine: Machine,
     pairs: Sequence[Pair],
-    language: str,
     *,
     depth: int,
     unvisited: Sequence[str] = (),
@@ -227,21 +193,18 @@ def explain(
     known |= {d.name for d in machine.definitions} | {v.name for v in machine.variables if v.every is not None}
     known |= {o.name for o in machine.outputs}
     numbered = [t.id for t in machine.transitions]
-    constants = _constant_invariants(machine)
     reasons = []
     for gap in gaps:
         element = element_of(lines, gap.line, known, numbered) or _last_guard(lines, gap.line, machine)
-        found = reasons_for(element, pairs, language, machine.has_data) if element else []
+        found = reasons_for(element, pairs) if element else []
         if not found and in_function(lines, gap.line, ("_div",)):
             found = [DIVISION]
         helper = None if found else _header_match(lines, gap.line, _HELPER)
         if helper is not None:
             found = [x for x in (saturation(machine, helper, depth),) if x]
-        if not found and element in constants:
-            found = [constants[element]]
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
-        mode = None if found else mode_of(lines, gap.line, machine.states) or _tested_state(lines, gap, machine)
+        mode = None if found else mode_of(lines, gap.line, machine.states)
         if mode is not None and mode in unvisited:
             found = [unvisited_reason(mode, depth)]
         reasons.append(" | ".join(found))
@@ -253,11 +216,10 @@ def fill(
     source: str,
     machine: Machine,
     pairs: Sequence[Pair],
-    language: str,
     *,
     depth: int,
     unvisited: Sequence[str] = (),
 ) -> None:
-    found = explain(gaps, source, machine, pairs, language, depth=depth, unvisited=unvisited)
+    found = explain(gaps, source, machine, pairs, depth=depth, unvisited=unvisited)
     for gap, reason in zip(gaps, found, strict=True):
         gap.reason = reason

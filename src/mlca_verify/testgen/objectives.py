@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Literal
 
-from mlca_verify.codegen.simplify import conjoin, disjoin
+from mlca_verify.codegen.joins import conjoin, disjoin
 from mlca_verify.errors import Loc
 from mlca_verify.model import (
     IN_MEMORY,
@@ -229,21 +229,9 @@ def _branches(expr: Expr, given: tuple[Expr, ...]) -> Iterator[tuple[Expr, tuple
 
 
 def invariant_decisions(machine: Machine) -> Iterator[Decision]:
-    """Each invariant on its own (the monitor of a machine with data, the Python monitor), and for a machine
-    without data each as the C monitor evaluates it: after the state check and the invariants before it, in
-    one `hold && ...` chain."""
-    # the Python monitor of a machine without data names an out-of-range state alone, evaluating no invariant
-    valid = () if machine.has_data else (StateIn(machine.states),)
+    """Each invariant on its own, as the monitor evaluates it."""
     for inv in machine.invariants:
-        yield Decision(f"inv:{inv.id}", "invariant", inv.expr, "post", None, valid, inv.cite, inv.loc)
-    if machine.has_data:
-        return
-    given: list[Expr] = [StateIn(machine.states)]
-    for inv in machine.invariants:
-        if inv.expr == StateIn(machine.states):
-            continue
-        yield Decision(f"chain:{inv.id}", "invariant", inv.expr, "post", None, tuple(given), inv.cite, inv.loc)
-        given.append(inv.expr)
+        yield Decision(f"inv:{inv.id}", "invariant", inv.expr, "post", None, (), inv.cite, inv.loc)
 
 
 def decisions(machine: Machine) -> list[Decision]:
@@ -254,13 +242,11 @@ def decisions(machine: Machine) -> list[Decision]:
         *output_decisions(machine),
         *invariant_decisions(machine),
     ]
-    if not machine.has_data:
-        return found
     return [replace(d, expr=per_mode(d.expr)) for d in found]
 
 
 def per_mode(expr: Expr) -> Expr:
-    """`state in {A, B}` as the C of a machine with data tests it, one mode at a time (`mode == A || mode == B`),
+    """`state in {A, B}` as the generated C tests it, one mode at a time (`mode == A || mode == B`),
     so that each test is a condition of its own, as gcc's MC/DC counts it."""
     if isinstance(expr, StateIn) and len(expr.states) > 1:
         return disjoin([StateIn((state,)) for state in expr.states])

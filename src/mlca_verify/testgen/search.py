@@ -281,7 +281,7 @@ def signal_bounds(system: System, i: StepInputs) -> list[z3.BoolRef]:
 
 def frame_values(model: z3.ModelRef, f: Frame) -> dict[str, bool | int | float]:
     """A frame as the generated code's context holds it: the mode, the variables, the registers, and `first`
-    where a register needs it (see `DataIR.first_flag`)."""
+    where a register needs it (see `MachineIR.first_flag`)."""
     values: dict[str, bool | int | float] = {"mode": value_at(model, f.mode)}
     values.update({n: value_at(model, t) for n, t in f.variables.items()})
     values.update({f"prev{k}": value_at(model, t) for k, t in f.registers.items()})

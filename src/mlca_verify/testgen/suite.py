@@ -12,7 +12,7 @@ from fractions import Fraction
 import z3
 
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, value_of
-from mlca_verify.model import Machine, evaluate, prevs_of
+from mlca_verify.model import Machine, prevs_of
 from mlca_verify.testgen.objectives import objectives
 from mlca_verify.testgen.search import Found, Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
 
@@ -136,7 +136,7 @@ def _expected(system: System, model: z3.ModelRef, post: Frame, terms: StepTerms)
 def param_cases(machine: Machine) -> list[ParamCase]:
     """The defaults, then each param just below and just above its range."""
     defaults = {p.name: _param_value(p.default, p.type) for p in machine.params}
-    cases = [ParamCase("defaults", defaults, True)] if machine.has_data else []  # code with data checks its params
+    cases = [ParamCase("defaults", defaults, True)]
     for p in machine.params:
         if p.range is None:
             continue
@@ -157,32 +157,7 @@ def generate(machine: Machine, depth: int = DEPTH) -> Suite:
     visits, unvisited = visit_states(machine, search, pairs)
     cases = cases_of(machine, pairs, visits)
     monitor = monitor_cases(pairs)
-    if not machine.has_data:
-        monitor += state_checks(machine, cases, monitor)
     return Suite(machine, cases, monitor, pairs, param_cases(machine), depth, unvisited)
-
-
-def state_checks(machine: Machine, cases: Sequence[Case], monitor: Sequence[MonitorCase]) -> list[MonitorCase]:
-    """For a machine without data, the monitor calls that run its state check on every state and on a mode that
-    names none: on each state no run's step and no other call ends in (the initial state, say, where no step
-    returns; an invariant that lists every state, like MLCA's A1, gets the call on no state from its pairs)."""
-    ended = {int(c.snapshot.after["mode"]) for c in monitor}
-    ended |= {machine.states.index(e.state) for case in cases for e in case.expected}
-    wanted = [k for k in range(len(machine.states) + 1) if k not in ended]
-    return [mode_case(machine, len(monitor) + n + 1, k) for n, k in enumerate(wanted)]
-
-
-def mode_case(machine: Machine, number: int, mode: int) -> MonitorCase:
-    """A monitor call with `mode` after the step (a mode that names no state when it is the number of states),
-    every input false, and the invariants the spec says fail there."""
-    initial = machine.states.index(machine.initial)
-    inputs: dict[str, bool | int | float] = {i: False for i in machine.input_names}
-    state = machine.states[mode] if mode < len(machine.states) else None
-    off = {n: False for n in inputs}
-    failing = tuple(i.id for i in machine.invariants if not evaluate(i.expr, off, state))
-    before: dict[str, bool | int | float] = {"mode": initial, "first": False}
-    after: dict[str, bool | int | float] = {"mode": mode, "first": False}
-    return MonitorCase(f"m{number:03d}", Snapshot(before, after, inputs, {}, failing), ("state-range",))
 
 
 def visit_states(machine: Machine, search: Search, pairs: Sequence[Pair]) -> tuple[dict[str, Found], list[str]]:

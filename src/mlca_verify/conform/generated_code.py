@@ -1,5 +1,5 @@
-"""`mlca-verify conform` for a machine with data: the generated Python, the generated C and the z3 semantics of
-the spec, step by step on a boundary set and on long random sequences, compared bit for bit.
+"""`mlca-verify conform`: the generated Python, the generated C and the z3 semantics of the spec, step by step
+on a boundary set and on long random sequences, compared bit for bit.
 
 The C runs in a small generated harness (one line of text per step: the context and the inputs in, the context,
 the outputs and the monitor out; reals as hexadecimal floats, exact), built once plainly and once under
@@ -26,9 +26,9 @@ import z3
 
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
-from mlca_verify.codegen.data_ir import DataIR
+from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
-from mlca_verify.conform.bool_code import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
+from mlca_verify.conform.c_tools import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
 from mlca_verify.conform.outcome import CheckOutcome, Suite
 from mlca_verify.layout import Layout
 from mlca_verify.loading import import_generated
@@ -51,18 +51,18 @@ REAL_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True)
-class DataSubject:
-    """A machine with data and its generated files."""
+class Subject:
+    """A machine and its generated files."""
 
     machine: Machine
-    ir: DataIR
+    ir: MachineIR
     layout: Layout
     build: Path
     sequences: int
 
 
 @dataclass(frozen=True)
-class DataCode:
+class Code:
     """The code `compile` built and loaded: the generated Python module, and the C harness over the generated C."""
 
     py: ModuleType
@@ -94,7 +94,7 @@ def _same(a: object, b: object) -> bool:
 class Columns:
     """The harness's columns, and how the Python module's objects map onto them."""
 
-    def __init__(self, ir: DataIR) -> None:
+    def __init__(self, ir: MachineIR) -> None:
         self.ir = ir
         self.var_real = [v.ctype == "double" for v in ir.variables]
         self.reg_real = [r.ctype == "double" for r in ir.registers]
@@ -161,17 +161,17 @@ def signal_values(low: float, high: float, real: bool) -> list[float | int]:
     return [low, high, *outside, (low + high) / 2, 0.0, -0.0, math.nan, math.inf, -math.inf, SUBNORMAL]
 
 
-def _flags(ir: DataIR) -> int:
-    """The columns of the first-step flag: one where the context keeps it (see `DataIR.first_flag`)."""
+def _flags(ir: MachineIR) -> int:
+    """The columns of the first-step flag: one where the context keeps it (see `MachineIR.first_flag`)."""
     return 1 if ir.first_flag else 0
 
 
-def context_width(ir: DataIR) -> int:
+def context_width(ir: MachineIR) -> int:
     """The columns of a context: the mode, the variables, the registers and the first-step flag if kept."""
     return 1 + len(ir.variables) + len(ir.registers) + _flags(ir)
 
 
-def boundary_rows(ir: DataIR) -> Iterator[Row]:
+def boundary_rows(ir: MachineIR) -> Iterator[Row]:
     """Every mode and boolean combination, each signal through its boundary values (the others in the middle),
     and each variable at 0, its limits and its initial value (the others initial)."""
     mids: list[float | int] = [_mid(f) for f in ir.signals]
@@ -193,12 +193,12 @@ def boundary_rows(ir: DataIR) -> Iterator[Row]:
                         yield (mode, *ctx, *registers, *first, *bits, *signals)
 
 
-def _initial(ir: DataIR) -> list[float | int]:
+def _initial(ir: MachineIR) -> list[float | int]:
     """Each variable's initial value."""
     return [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
 
 
-def variable_values(ir: DataIR, k: int) -> list[float | int]:
+def variable_values(ir: MachineIR, k: int) -> list[float | int]:
     """0, the limits and, for an int, each int param's default and its neighbours (the thresholds a timer is
     compared with), within the variable's range."""
     v = ir.variables[k]
@@ -221,7 +221,7 @@ def _mid(f: Any) -> float | int:
     return (low + high) / 2 if f.ctype == "double" else (low + high) // 2
 
 
-def random_inputs(ir: DataIR, rng: random.Random) -> Row:
+def random_inputs(ir: MachineIR, rng: random.Random) -> Row:
     """Booleans, and signals mostly in range, now and then at a boundary value."""
     bits = tuple(rng.random() < 0.7 for _ in ir.inputs)
     signals: list[object] = []
@@ -296,9 +296,9 @@ def _z3_value(value: object, kind: Type, bounds: tuple[Fraction, Fraction] | Non
 # --- checks ------------------------------------------------------------------------------------------------
 
 
-def build_harness(t: DataSubject, name: str, extra: Sequence[str]) -> tuple[Path | None, str]:
+def build_harness(t: Subject, name: str, extra: Sequence[str]) -> tuple[Path | None, str]:
     source = t.build / "harness.c"
-    source.write_text(render_template("data_harness.c.j2", m=t.ir), encoding="utf-8")
+    source.write_text(render_template("harness.c.j2", m=t.ir), encoding="utf-8")
     exe = t.build / name
     ran = run(
         [
@@ -317,13 +317,13 @@ def build_harness(t: DataSubject, name: str, extra: Sequence[str]) -> tuple[Path
     return (exe if ran.returncode == 0 else None), ran.output.strip()
 
 
-def compile_and_load(t: DataSubject) -> tuple[CheckOutcome, DataCode | None]:
+def compile_and_load(t: Subject) -> tuple[CheckOutcome, Code | None]:
     harness, output = build_harness(t, "harness", ["-O2"])
     if harness is None:
         return CheckOutcome("compile", False, f"gcc failed:\n{output}"), None
     py = import_generated(t.layout.python, f"mlca_generated_{t.ir.module}")
     detail = f"gcc {' '.join(C_FLAGS)} -O2 -ffp-contract=off: no warning; Python imported"
-    return CheckOutcome("compile", True, detail), DataCode(py, harness)
+    return CheckOutcome("compile", True, detail), Code(py, harness)
 
 
 def run_harness(exe: Path, rows: Sequence[Row], columns: Columns) -> list[Row]:
@@ -334,7 +334,7 @@ def run_harness(exe: Path, rows: Sequence[Row], columns: Columns) -> list[Row]:
     return [columns.parse(line) for line in ran.output.splitlines()]
 
 
-def exhaustive(t: DataSubject, code: DataCode) -> CheckOutcome:
+def exhaustive(t: Subject, code: Code) -> CheckOutcome:
     """The boundary set: Python and C bit for bit, and both as z3's semantics of the spec says; from a mode that
     names no state, both restart in the fallback mode with the initial values."""
     columns, z3_step = Columns(t.ir), Semantics(t.machine)
@@ -357,25 +357,32 @@ def exhaustive(t: DataSubject, code: DataCode) -> CheckOutcome:
     failed = _restart_failure(code.py, columns, restarts, c_rows[len(rows) :])
     if failed:
         return CheckOutcome("exhaustive", False, failed)
-    flag = " and first-step flag" if t.ir.first_flag else ""
     detail = (
-        f"{len(rows)} steps (every mode, boolean combination{flag}; each signal at its range ends, "
-        "just outside, the middle, ±0, NaN, ±infinity and a subnormal; each variable at 0, its limits and its "
-        "initial value): Python and C agree bit for bit, and both agree with z3's semantics of the spec; "
-        f"{len(restarts)} steps from a mode that names no state: both restart in {t.ir.fallback} with the initial "
-        "values"
+        f"{len(rows)} steps ({_boundary_words(t.ir)}): Python and C agree bit for bit, and both agree with z3's "
+        f"semantics of the spec; {len(restarts)} steps from a mode that names no state: both restart in "
+        f"{t.ir.fallback}{' with the initial values' if t.ir.variables or t.ir.registers else ''}"
     )
     return CheckOutcome("exhaustive", True, detail, data={"steps": len(rows), "restarts": len(restarts)})
 
 
-def restart_rows(ir: DataIR, rows: Sequence[Row]) -> list[Row]:
+def _boundary_words(ir: MachineIR) -> str:
+    """What the boundary set holds, in the machine's own terms (no signal or variable where it has none)."""
+    parts = [f"every mode, boolean combination{' and first-step flag' if ir.first_flag else ''}"]
+    if ir.signals:
+        parts.append("each signal at its range ends, just outside, the middle, ±0, NaN, ±infinity and a subnormal")
+    if ir.variables:
+        parts.append("each variable at 0, its limits and its initial value")
+    return "; ".join(parts)
+
+
+def restart_rows(ir: MachineIR, rows: Sequence[Row]) -> list[Row]:
     """The boundary rows of the first mode after the first step, each with a mode that names no state instead (a
     context corrupted during a run)."""
     flag = 1 + len(ir.variables) + len(ir.registers)
     return [(len(ir.states), *row[1:]) for row in rows if row[0] == 0 and (not ir.first_flag or row[flag] == 0)]
 
 
-def restarted(ir: DataIR) -> Row:
+def restarted(ir: MachineIR) -> Row:
     """The mode, variables, registers and first-step flag a corrupted context restarts with, as the spec says."""
     return (ir.states.index(ir.fallback), *_initial(ir), *[0] * len(ir.registers), *[1] * _flags(ir))
 
@@ -422,7 +429,7 @@ def _invariant_standing(machine: Machine) -> tuple[set[str], dict[str, str]]:
     return proved, said
 
 
-def sequences(t: DataSubject, code: DataCode) -> CheckOutcome:
+def sequences(t: Subject, code: Code) -> CheckOutcome:
     """Random runs from the initial context, each step fed to Python and C alike; the invariants the engine
     proves must hold (the first failure of any other is reported, with what the engine says of it)."""
     columns = Columns(t.ir)
@@ -434,7 +441,7 @@ def sequences(t: DataSubject, code: DataCode) -> CheckOutcome:
         rng = random.Random(seed)
         ctx = code.py.Context()
         row: Row = (int(ctx.mode), *[getattr(ctx, v.name) for v in t.ir.variables])
-        row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.registers), 1)
+        row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.registers), *[1] * _flags(t.ir))
         rows: list[Row] = []
         py_rows: list[Row] = []
         inside = True  # every step of the run so far within the environment assumptions
@@ -468,7 +475,7 @@ def sequences(t: DataSubject, code: DataCode) -> CheckOutcome:
     return CheckOutcome("sequences", True, detail, data={"steps": total, "unproved_failing": sorted(seen)})
 
 
-def _drawn(context: Row, ir: DataIR, rng: random.Random, assumed: Callable[[Row], bool], tries: int = 20) -> Row:
+def _drawn(context: Row, ir: MachineIR, rng: random.Random, assumed: Callable[[Row], bool], tries: int = 20) -> Row:
     """The context with random inputs for the next step: the first of `tries` draws the environment assumptions
     allow, else the last one drawn."""
     for _ in range(tries - 1):
@@ -478,7 +485,7 @@ def _drawn(context: Row, ir: DataIR, rng: random.Random, assumed: Callable[[Row]
     return context + random_inputs(ir, rng)
 
 
-def _assumptions(machine: Machine, ir: DataIR) -> Callable[[Row], bool]:
+def _assumptions(machine: Machine, ir: MachineIR) -> Callable[[Row], bool]:
     """Whether a step (a row: the context before it, then its inputs and signals) satisfies every environment
     assumption, evaluated in the code's arithmetic at the default params."""
     if not machine.assumptions:
@@ -499,7 +506,7 @@ def _assumptions(machine: Machine, ir: DataIR) -> Callable[[Row], bool]:
     return holds
 
 
-def sanitizers(t: DataSubject) -> CheckOutcome:
+def sanitizers(t: Subject) -> CheckOutcome:
     exe, output = build_harness(t, "harness-san", list(SANITIZE))
     if exe is None:
         return CheckOutcome("sanitizers", False, f"gcc failed:\n{output}")
@@ -509,10 +516,29 @@ def sanitizers(t: DataSubject) -> CheckOutcome:
         run_harness(exe, rows, columns)
     except AssertionError as err:
         return CheckOutcome("sanitizers", False, str(err))
-    return CheckOutcome("sanitizers", True, f"{len(rows)} boundary steps under {' '.join(SANITIZE[:1])}: no report")
+    detail = f"{len(rows)} boundary steps under {' '.join(SANITIZE[:1])}: no report"
+    missed = _invalid_bools_missed(t, exe)
+    if missed is not None:
+        return CheckOutcome("sanitizers", False, missed)
+    return CheckOutcome("sanitizers", True, detail + ("; inputs outside 0/1 reported" if t.ir.inputs else ""))
 
 
-def cross_build(t: DataSubject) -> CheckOutcome:
+def _invalid_bools_missed(t: Subject, exe: Path) -> str | None:
+    """The step's precondition (every bool input is 0 or 1) is one an integrator's UBSan build checks: a step on
+    0xFF bytes must be reported wherever the code reads a bool input. None when it is (or when the code reads
+    none), else what went wrong."""
+    if not t.ir.inputs:
+        return None
+    ran = run([str(exe), "invalid"], timeout=120)
+    if ran.returncode != 0 and "not a valid value for type" in ran.output:
+        return None
+    source = t.layout.c_source.read_text(encoding="utf-8")
+    if not any(f"i->{f.name}" in source for f in t.ir.inputs):
+        return None
+    return f"a step on inputs outside 0/1 was not reported by -fsanitize=bool:\n{ran.output.strip()[-500:]}"
+
+
+def cross_build(t: Subject) -> CheckOutcome:
     obj = t.build / "m4.o"
     su = t.build / "m4.su"
     ran = run(
@@ -556,19 +582,19 @@ def _calls_text(calls: list[str], outside: list[str]) -> str:
     return "no call out of the object"
 
 
-# WP's flags for a machine with data, beside conform.bool_code.WP, with its budget of steps: MLCA-T's hardest goal
+# WP's flags, beside conform.c_tools.WP, with its budget of steps: MLCA-T's hardest goal
 # takes 13.3 million (11 s here), and the budget is 3 times that.
 WP_STEPS = 40_000_000
 WP_FLAGS = ("-wp-steps", str(WP_STEPS), "-warn-special-float", "none", "-wp-prop=-binary64")
 
 
-def frama_c(t: DataSubject) -> CheckOutcome:
+def frama_c(t: Subject) -> CheckOutcome:
     """WP: no runtime error (integer overflow included), the step equal to the spec's transition relation (the
     transition that fires, by the ACSL behaviours of each mode, and the context and outputs after it), variables
     kept in range, the mode a state. The IEEE 754 special values are allowed (-warn-special-float none): NaN and
     the infinities are inputs the code handles by design, never read by a decision (the validity gate comes
     first). The ensures clauses labelled `binary64` link a C function that computes on reals to its logic
-    symbol, which has no body (see `codegen.data_ir.binary64`): they are listed, not sent to the prover. Then
+    symbol, which has no body (see `codegen.ir.binary64`): they are listed, not sent to the prover. Then
     the spec's proved invariants, each with its certificate, on a wrapper of the step (`certified`)."""
     monitor, outputs = f"{t.ir.module}_monitor", f"{t.ir.module}_outputs"
     flags = (*WP_FLAGS, "-wp-skip-fct", f"{monitor},{outputs}")
@@ -592,7 +618,7 @@ def frama_c(t: DataSubject) -> CheckOutcome:
     return replace(outcome, detail=outcome.detail + note, data=data)
 
 
-def _outputs_proved(t: DataSubject, outputs: str) -> CheckOutcome:
+def _outputs_proved(t: Subject, outputs: str) -> CheckOutcome:
     """WP on the outputs' function; where a goal is left, again with each goal split at its conditionals. The
     split proves an int output that multiplies two values read from the spec (a nonlinear goal z3 leaves
     unknown whole); it is not the first try, because a split goal that compares binary64 values makes z3
@@ -627,7 +653,7 @@ def _joined(step: CheckOutcome, outputs: CheckOutcome) -> CheckOutcome:
     return CheckOutcome("frama-c-wp", True, detail, data=data)
 
 
-def certified_invariants(t: DataSubject) -> CheckOutcome:
+def certified_invariants(t: Subject) -> CheckOutcome:
     """The invariants the engine proves for every param in range, as postconditions of a wrapper of the step
     with their certificates as precondition, proved by WP from the step's contract (see `codegen.certified`)."""
     results = check_data_machine(t.machine, Limits(), parametric=True)
@@ -680,7 +706,7 @@ def _certified(results: Sequence[Result]) -> list[Proved]:
     ]
 
 
-def _reached_ranges(t: DataSubject, results: Sequence[Result]) -> tuple[list[str], list[str]]:
+def _reached_ranges(t: Subject, results: Sequence[Result]) -> tuple[list[str], list[str]]:
     """The variables whose range the step's contract requires without ensuring it (one step does not keep it from
     every context in range), and those of them whose range:<name> the engine does not prove for every param."""
     verdicts = {r.prop: r.verdict for r in results}
@@ -701,7 +727,7 @@ def _unkept_detail(reached: Sequence[str], unkept: Sequence[str]) -> str:
     return text
 
 
-def binary64_goals(ir: DataIR) -> list[str]:
+def binary64_goals(ir: MachineIR) -> list[str]:
     """The clauses labelled `binary64`, which WP is not asked to prove: the link of each C function that computes
     on reals to its logic symbol, and what the step, the reset and the outputs say of the real variables,
     registers and outputs (see `codegen.rounded`)."""
@@ -718,11 +744,11 @@ def binary64_goals(ir: DataIR) -> list[str]:
     return clauses
 
 
-def cppcheck(t: DataSubject) -> CheckOutcome:
+def cppcheck(t: Subject) -> CheckOutcome:
     return cppcheck_file(t.layout.c_source, t.build)
 
 
-DATA_SUITE: Suite[DataSubject, DataCode] = Suite(
+SUITE: Suite[Subject, Code] = Suite(
     compile_and_load,
     {"exhaustive": exhaustive, "sequences": sequences},
     {"frama-c-wp": frama_c, "cppcheck": cppcheck, "cortex-m4": cross_build, "sanitizers": sanitizers},
