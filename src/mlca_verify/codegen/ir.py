@@ -23,6 +23,7 @@ from mlca_verify.model import (
     Num,
     Type,
     Var,
+    name_types,
     nodes,
     prevs_of,
     show,
@@ -89,6 +90,7 @@ class Branch:
     target: str
     guard: Code
     cite: str
+    expr: Expr = field(default=Const(True), compare=False, repr=False)  # the guard as the code writes it
 
 
 @dataclass(frozen=True)
@@ -317,7 +319,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         for t in m.outgoing(state):
             guard = tidy(without_known(t.guard, known), names.types)
             code = replace(stated(guard, "bool"), text=show(t.guard))
-            branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite))
+            branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite, guard))
             guards.append(guard)
             known += known_false(t.guard)
         return _case(state, index, tuple(branches), guards, hoisted)
@@ -395,8 +397,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         for case in ir.cases
     )  # fmt: skip
     in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts
-    used = _called(ir, repr(replace(in_code, definitions=())))
-    contracts = _called(ir, repr(replace(ir, definitions=())))  # by the code or the contracts (every branch)
+    used, contracts = _definition_reads(m, written, cases, [*register_args, *(part.expr for part in parts)], uses)
     code_shapes = tuple(sh for sh in ir.shapes if set(sh.users) & used)
     text = repr(replace(in_code, definitions=tuple(d for d in ir.definitions if d.name in used), shapes=code_shapes))
     helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in text)
@@ -410,17 +411,43 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     )
 
 
-def _called(ir: MachineIR, text: str) -> frozenset[str]:
-    """The definitions whose functions `text` calls, and those their bodies call."""
-    called: set[str] = set()
-    todo = [d.name for d in ir.definitions if f"{ir.module}_def_{d.name}(" in text]
+def _definition_reads(
+    m: Machine, written: Sequence[Case], cases: Sequence[Case], computed: Sequence[Expr], shared: Mapping[str, Use]
+) -> tuple[frozenset[str], frozenset[str]]:
+    """The definitions the code calls (its branches as `written`, every update, output, register, invariant and
+    real part, the `computed` registers and parts among them), and those the contracts read (every branch of
+    `cases`, and every transition's guard as the spec writes it)."""
+    values = [
+        *(u.expr for t in m.transitions for u in t.updates),
+        *(v.every for v in m.variables if v.every is not None),
+        *(o.expr for o in m.outputs),
+        *(inv.expr for inv in m.invariants),
+        *computed,
+    ]
+    in_step = [b.expr for case in written for b in case.branches]
+    stated = [*(b.expr for case in cases for b in case.branches), *(t.guard for t in m.transitions)]
+    return _read_definitions(m, [*in_step, *values], shared), _read_definitions(m, [*stated, *values], shared)
+
+
+def _read_definitions(m: Machine, exprs: Sequence[Expr], shared: Mapping[str, Use]) -> frozenset[str]:
+    """The definitions `exprs` read as the code writes them (what their own text decides taken out, see `tidy`),
+    and those their rules read: the ones whose functions the code calls. A definition that is one of a shared
+    rule's users is computed by the rule's function from samples alone."""
+    types = name_types(m)
+    rules = {d.name: d.expr for d in m.definitions}
+    found: set[str] = set()
+    todo = [name for e in exprs for name in _names(tidy(e, types)) if name in rules]
     while todo:
         name = todo.pop()
-        if name not in called:
-            called.add(name)
-            body = next(d.code.c for d in ir.definitions if d.name == name)
-            todo += [d.name for d in ir.definitions if f"{ir.module}_def_{d.name}(" in body]
-    return frozenset(called)
+        if name not in found:
+            found.add(name)
+            if name not in shared:
+                todo += [n for n in _names(tidy(rules[name], types)) if n in rules]
+    return frozenset(found)
+
+
+def _names(e: Expr) -> set[str]:
+    return {x.name for x in nodes(e) if isinstance(x, Var)}
 
 
 def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
