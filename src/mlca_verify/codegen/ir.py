@@ -23,7 +23,6 @@ from mlca_verify.model import (
     Num,
     Type,
     Var,
-    name_types,
     nodes,
     prevs_of,
     show,
@@ -31,6 +30,7 @@ from mlca_verify.model import (
     substitute,
 )
 from mlca_verify.model import Definition as SpecDefinition
+from mlca_verify.model import names_of as read_names
 
 
 @dataclass(frozen=True)
@@ -90,7 +90,7 @@ class Branch:
     target: str
     guard: Code
     cite: str
-    expr: Expr = field(default=Const(True), compare=False, repr=False)  # the guard as the code writes it
+    expr: Expr = field(compare=False, repr=False)  # the guard as the code writes it
 
 
 @dataclass(frozen=True)
@@ -325,7 +325,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         return _case(state, index, tuple(branches), guards, hoisted)
 
     direct = not m.variables and not prevs
-    hoisted = _hoisted(m, [tidy(without_known(t.guard, []), names.types) for t in m.transitions]) if direct else 0
+    hoisted = _hoisted(m, [tidy(t.guard, names.types) for t in m.transitions]) if direct else 0
     cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     if direct:
         cases = tuple(_trimmed(case) for case in cases)
@@ -397,7 +397,8 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         for case in ir.cases
     )  # fmt: skip
     in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts
-    used, contracts = _definition_reads(m, written, cases, [*register_args, *(part.expr for part in parts)], uses)
+    computed_values = [*register_args, *(part.expr for part in parts)]
+    used, contracts = _definition_reads(m, written, cases, computed_values, types=names.types, shared=uses)
     code_shapes = tuple(sh for sh in ir.shapes if set(sh.users) & used)
     text = repr(replace(in_code, definitions=tuple(d for d in ir.definitions if d.name in used), shapes=code_shapes))
     helpers = frozenset(h for h in HELPERS if f"{module}_{h}(" in text)
@@ -412,7 +413,13 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
 
 
 def _definition_reads(
-    m: Machine, written: Sequence[Case], cases: Sequence[Case], computed: Sequence[Expr], shared: Mapping[str, Use]
+    m: Machine,
+    written: Sequence[Case],
+    cases: Sequence[Case],
+    computed: Sequence[Expr],
+    *,
+    types: Mapping[str, Type],
+    shared: Mapping[str, Use],
 ) -> tuple[frozenset[str], frozenset[str]]:
     """The definitions the code calls (its branches as `written`, every update, output, register, invariant and
     real part, the `computed` registers and parts among them), and those the contracts read (every branch of
@@ -426,28 +433,28 @@ def _definition_reads(
     ]
     in_step = [b.expr for case in written for b in case.branches]
     stated = [*(b.expr for case in cases for b in case.branches), *(t.guard for t in m.transitions)]
-    return _read_definitions(m, [*in_step, *values], shared), _read_definitions(m, [*stated, *values], shared)
+    return (
+        _read_definitions(m, types, [*in_step, *values], shared),
+        _read_definitions(m, types, [*stated, *values], shared),
+    )
 
 
-def _read_definitions(m: Machine, exprs: Sequence[Expr], shared: Mapping[str, Use]) -> frozenset[str]:
+def _read_definitions(
+    m: Machine, types: Mapping[str, Type], exprs: Sequence[Expr], shared: Mapping[str, Use]
+) -> frozenset[str]:
     """The definitions `exprs` read as the code writes them (what their own text decides taken out, see `tidy`),
     and those their rules read: the ones whose functions the code calls. A definition that is one of a shared
     rule's users is computed by the rule's function from samples alone."""
-    types = name_types(m)
     rules = {d.name: d.expr for d in m.definitions}
     found: set[str] = set()
-    todo = [name for e in exprs for name in _names(tidy(e, types)) if name in rules]
+    todo = [name for e in exprs for name in read_names(tidy(e, types)) if name in rules]
     while todo:
         name = todo.pop()
         if name not in found:
             found.add(name)
             if name not in shared:
-                todo += [n for n in _names(tidy(rules[name], types)) if n in rules]
+                todo += [n for n in read_names(tidy(rules[name], types)) if n in rules]
     return frozenset(found)
-
-
-def _names(e: Expr) -> set[str]:
-    return {x.name for x in nodes(e) if isinstance(x, Var)}
 
 
 def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
