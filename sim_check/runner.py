@@ -32,7 +32,7 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.loading import DEFS_SHIFT, FIRED_MASK, FIRED_SHIFT, HOLDS, STATE_BITS
+from mlca_verify.loading import DEFS_SHIFT, HOLDS, STATE_BITS, fired_in
 from sim_check import mobil, ssm
 from sim_check.accounting import EMERGENCY_DECEL, Driving, Ledger
 from sim_check.controllers import Setup, load_controller, setup_of
@@ -248,16 +248,11 @@ class ClosedLoop:
     def data_machine(self, av: Driving, t: float, need: Need, sensed: tuple[float, ...]) -> tuple[int, bool]:
         """One step of the machine with data and its runtime monitor: the side its command moves to (+1, -1 or 0),
         and whether it saw a safe gap (its L or R)."""
-        data = self.ctrl
-        assert data is not None and data.command_at is not None
-        old = av.state
-        packed, *outputs = data.advance(av.ctx, need.side != 0, need.urgent, *sensed)
-        av.state = packed & STATE_BITS
-        fired = max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1)
-        self.ledger.stepped(av, t, old, {"N": need.side != 0, "U": need.urgent, "signals": sensed}, fired)
-        if not packed & HOLDS:
-            self.ledger.violation(av, t, data.failing())
-        return outputs[data.command_at], bool(packed & self.safe_bits)
+        command_at = self.ctrl.command_at if self.ctrl else None
+        assert command_at is not None
+        values = (need.side != 0, need.urgent, *sensed)
+        packed, outputs = self.machine_step(av, t, values, {"N": values[0], "U": values[1], "signals": sensed})
+        return outputs[command_at], bool(packed & self.safe_bits)
 
     def decide_mobil(
         self,
@@ -282,16 +277,24 @@ class ClosedLoop:
     def machine(self, av: Driving, t: float, inputs: dict[str, bool]) -> int:
         """One step of a machine on the sensed booleans and its runtime monitor; the side its mode moves to (+1, -1
         or 0)."""
+        assert self.ctrl is not None
+        self.machine_step(av, t, self.ctrl.values(inputs), inputs)
+        return self.sides[av.state]
+
+    def machine_step(
+        self, av: Driving, t: float, values: tuple[Any, ...], seen: dict[str, Any]
+    ) -> tuple[int, list[Any]]:
+        """One step of the generated machine on `values` and its runtime monitor, which the ledger keeps with
+        `seen` (the inputs as the trace records them); the answer's packed int and the outputs."""
         ctrl = self.ctrl
         assert ctrl is not None
         old = av.state
-        packed, *_ = ctrl.advance(av.ctx, *ctrl.values(inputs))
-        new: int = packed & STATE_BITS
-        av.state = new
-        self.ledger.stepped(av, t, old, inputs, max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1))
+        packed, *outputs = ctrl.advance(av.ctx, *values)
+        av.state = packed & STATE_BITS
+        self.ledger.stepped(av, t, old, seen, fired_in(packed))
         if not packed & HOLDS:
             self.ledger.violation(av, t, ctrl.failing())
-        return self.sides[new]
+        return packed, outputs
 
     def move(
         self, av: Driving, t: float, where: tuple[str, int, float], side: int, claims: list[LaneClaim] | None

@@ -33,6 +33,11 @@ FIRED_MASK = 0xFFF  # ... in these bits (after the shift)
 DEFS_SHIFT = 32  # ... and from here, one bit per boolean definition (`flag_definitions`), as the step saw it
 
 
+def fired_in(packed: int) -> int:
+    """The number of the transition an answer says fired, from 1 (0: none, or the mode was not a state)."""
+    return max(0, ((packed >> FIRED_SHIFT) & FIRED_MASK) - 1)
+
+
 def flag_definitions(ir: MachineIR) -> tuple[str, ...]:
     """The boolean definitions the generated code computes (L, R, W of MLCA-T), in the spec's order: an `advance`
     answer holds their values, as the step saw them, from DEFS_SHIFT on."""
