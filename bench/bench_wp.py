@@ -8,11 +8,16 @@ transitions, a `from = "*"` transition counted once per state it leaves. Familie
   every mode), then the pedestrian crossing with a 5 s minimum green as a timer, and MLCA-T.
 For each it prints the goals, the wall time, and both per unit of size: linear growth keeps those two columns
 flat. Wall times are of one run on a noisy 2-core machine; the goal counts are exact.
+
+Then, side by side in one run, Alg. 1 and the repair: the step generated today against the boolean pipeline's
+(bench/reference/boolean/, its last version), each proved with the same flags; the median of interleaved pairs.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
+import statistics
 import sys
 import tempfile
 import time
@@ -103,6 +108,37 @@ def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -
     )
 
 
+def _proved_in(c_file: Path, work: Path) -> tuple[int, float]:
+    """The goals of one file and the seconds WP took to prove them all (it fails loudly if one is left)."""
+    build = Path(tempfile.mkdtemp(dir=work))
+    module = c_file.name.removesuffix("_fsm.c")
+    skip = ("-wp-skip-fct", f"{module}_monitor") if f"{module}_monitor(" in c_file.read_text() else ()
+    start = time.monotonic()
+    outcome = wp_file(c_file, build, (*WP_FLAGS, *skip))
+    seconds = time.monotonic() - start
+    data = outcome.data or {}
+    if not outcome.ok:
+        raise SystemExit(f"{c_file}: {outcome.detail}")
+    return int(data.get("goals", 0)), seconds
+
+
+def against_the_boolean_pipeline(work: Path, pairs: int) -> None:
+    """Today's generated C and the boolean pipeline's for the shipped boolean machines, proved alternately."""
+    print(f"\nside by side, median of {pairs} interleaved pairs")
+    print(f"{'spec':<14} {'goals':>6} {'wp (s)':>8} {'old goals':>10} {'old wp (s)':>11} {'time ratio':>11}")
+    for spec in ("mlca", "mlca_r"):
+        ours, old = work / f"{spec}_now", work / f"{spec}_old"
+        for folder, source in ((ours, ROOT / "generated" / "c"), (old, ROOT / "bench" / "reference" / "boolean")):
+            folder.mkdir()
+            for suffix in ("_fsm.c", "_fsm.h"):
+                shutil.copy(source / f"{spec}{suffix}", folder)
+        now_c, old_c = ours / f"{spec}_fsm.c", old / f"{spec}_fsm.c"
+        runs = [(_proved_in(now_c, work), _proved_in(old_c, work)) for _ in range(pairs)]
+        now_s = statistics.median(a[1] for a, _ in runs)
+        old_s = statistics.median(b[1] for _, b in runs)
+        print(f"{spec:<14} {runs[0][0][0]:>6} {now_s:>8.1f} {runs[0][1][0]:>10} {old_s:>11.1f} {now_s / old_s:>11.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller families")
@@ -119,6 +155,7 @@ def main() -> None:
             measure(f"chain_{n}", chain(n), work)
         measure(f"crossing_timed_{GREEN}", crossing_timed(GREEN), work)
         measure("mlca_t", None, work, ROOT / "spec" / "mlca_t.toml")
+        against_the_boolean_pipeline(work, 1 if args.quick else 3)
 
 
 if __name__ == "__main__":

@@ -379,10 +379,19 @@ def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) ->
     context = header[header.index("typedef struct {\n    conveyor_state_t mode;") :]
     assert "bool first;" not in context[: context.index("} conveyor_ctx_t;")]
     step = _c_function(source, "void conveyor_step(")
-    assert step.index("if (i->stop) {") < step.index("c->mode == CONVEYOR_HALTED")
+    assert step.index("if (i->stop) {") < step.index("(mode == CONVEYOR_HALTED)")
     assert "fired" not in step and "next.mode = conveyor_to_RUNNING(c, i, p);" in step
     creeping = _c_function(source, "static conveyor_state_t conveyor_to_CREEPING(")
     assert "i->stop" not in creeping  # the hoisted test is not repeated in the mode's chain
+    # its contract states the relation mode by mode (WP's goals then hold one mode each), not through the
+    # function over every mode
+    contract = source[source.rindex("/*@ requires", 0, source.index("\nvoid conveyor_step(")) :]
+    contract = contract[: contract.index("@*/")]
+    machine = load_spec(CONVEYOR).machine
+    for state in machine.states:
+        assert f"@ behavior in_{state}:\n  @   assumes c->mode == CONVEYOR_{state};" in contract
+        assert f"conveyor_first_{state}(\\old(*c), *i, *p), *c);" in contract
+    assert "conveyor_first(" not in contract and "@ complete behaviors;\n  @ disjoint behaviors;" in contract
     kept = generate(load_spec(SPEC), tmp_path / "generated")
     assert "    bool first;" in kept["c/mlca_t_fsm.h"]
     assert "const int fired = mlca_t_fired(c, i, p);" in _c_function(kept["c/mlca_t_fsm.c"], "void mlca_t_step(")

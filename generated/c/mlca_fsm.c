@@ -292,31 +292,48 @@ static mlca_state_t mlca_to_MOVING_RIGHT(const mlca_ctx_t *c, const mlca_inputs_
 /* Proved by Frama-C WP (`mlca-verify conform`, check frama-c-wp): no runtime error; the step is the spec's (the
  * context after it and the outputs are those of the transition that fires); and from a context whose variables
  * are in their ranges (the spec's range: checks prove every reachable one is), it keeps them in range and leaves
- * the mode a state. */
+ * the mode a state. The step's relation is stated mode by mode, one
+ * behaviour each (complete and disjoint, so together they are mlca_next of mlca_first), which also leaves the
+ * mode a state: each WP goal then holds one mode's transitions. */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && \valid(c) && \valid(o) && \separated(c, o, i, p) && \separated(o, i, p);
   @ assigns *c, *o;
   @ ensures \true;
-  @ ensures c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT;
-  @ ensures mlca_next(\old(*c), *i, *p, mlca_first(\old(*c), *i, *p), *c);
   @ ensures mlca_outputs_l(*c, *i, *p, *o);
+  @ behavior in_IDLE:
+  @   assumes c->mode == MLCA_IDLE;
+  @   ensures (c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT) && mlca_next(\old(*c), *i, *p, mlca_first_IDLE(\old(*c), *i, *p), *c);
+  @ behavior in_WAITING:
+  @   assumes c->mode == MLCA_WAITING;
+  @   ensures (c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT) && mlca_next(\old(*c), *i, *p, mlca_first_WAITING(\old(*c), *i, *p), *c);
+  @ behavior in_MOVING_LEFT:
+  @   assumes c->mode == MLCA_MOVING_LEFT;
+  @   ensures (c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT) && mlca_next(\old(*c), *i, *p, mlca_first_MOVING_LEFT(\old(*c), *i, *p), *c);
+  @ behavior in_MOVING_RIGHT:
+  @   assumes c->mode == MLCA_MOVING_RIGHT;
+  @   ensures (c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT) && mlca_next(\old(*c), *i, *p, mlca_first_MOVING_RIGHT(\old(*c), *i, *p), *c);
+  @ behavior not_a_state:
+  @   assumes !(c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT);
+  @   ensures (c->mode == MLCA_IDLE || c->mode == MLCA_WAITING || c->mode == MLCA_MOVING_LEFT || c->mode == MLCA_MOVING_RIGHT) && mlca_next(\old(*c), *i, *p, -1, *c);
+  @ complete behaviors;
+  @ disjoint behaviors;
   @*/
 void mlca_step(mlca_ctx_t *c, const mlca_inputs_t *i, const mlca_params_t *p, mlca_outputs_t *o)
 {
     mlca_ctx_t next = *c;
+    const mlca_state_t mode = c->mode;
     if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7), from every mode */
         next.mode = MLCA_IDLE;
-    } else if (c->mode == MLCA_IDLE) {
+    } else if (mode == MLCA_IDLE) {
         next.mode = mlca_to_IDLE(c, i, p);
-    } else if (c->mode == MLCA_WAITING) {
+    } else if (mode == MLCA_WAITING) {
         next.mode = mlca_to_WAITING(c, i, p);
-    } else if (c->mode == MLCA_MOVING_LEFT) {
+    } else if (mode == MLCA_MOVING_LEFT) {
         next.mode = mlca_to_MOVING_LEFT(c, i, p);
-    } else if (c->mode == MLCA_MOVING_RIGHT) {
+    } else if (mode == MLCA_MOVING_RIGHT) {
         next.mode = mlca_to_MOVING_RIGHT(c, i, p);
     } else {
         mlca_restart(&next); /* the mode is not a state: restart in the fallback mode */
     }
-    /*@ assert stepped: mlca_next(*c, *i, *p, mlca_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
     mlca_outputs(&next, i, p, o);
     *c = next;
 }

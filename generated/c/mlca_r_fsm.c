@@ -305,31 +305,48 @@ static mlca_r_state_t mlca_r_to_MOVING_RIGHT(const mlca_r_ctx_t *c, const mlca_r
 /* Proved by Frama-C WP (`mlca-verify conform`, check frama-c-wp): no runtime error; the step is the spec's (the
  * context after it and the outputs are those of the transition that fires); and from a context whose variables
  * are in their ranges (the spec's range: checks prove every reachable one is), it keeps them in range and leaves
- * the mode a state. */
+ * the mode a state. The step's relation is stated mode by mode, one
+ * behaviour each (complete and disjoint, so together they are mlca_r_next of mlca_r_first), which also leaves the
+ * mode a state: each WP goal then holds one mode's transitions. */
 /*@ requires \valid_read(c) && \valid_read(i) && \valid_read(p) && \true && \valid(c) && \valid(o) && \separated(c, o, i, p) && \separated(o, i, p);
   @ assigns *c, *o;
   @ ensures \true;
-  @ ensures c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT;
-  @ ensures mlca_r_next(\old(*c), *i, *p, mlca_r_first(\old(*c), *i, *p), *c);
   @ ensures mlca_r_outputs_l(*c, *i, *p, *o);
+  @ behavior in_IDLE:
+  @   assumes c->mode == MLCA_R_IDLE;
+  @   ensures (c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT) && mlca_r_next(\old(*c), *i, *p, mlca_r_first_IDLE(\old(*c), *i, *p), *c);
+  @ behavior in_WAITING:
+  @   assumes c->mode == MLCA_R_WAITING;
+  @   ensures (c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT) && mlca_r_next(\old(*c), *i, *p, mlca_r_first_WAITING(\old(*c), *i, *p), *c);
+  @ behavior in_MOVING_LEFT:
+  @   assumes c->mode == MLCA_R_MOVING_LEFT;
+  @   ensures (c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT) && mlca_r_next(\old(*c), *i, *p, mlca_r_first_MOVING_LEFT(\old(*c), *i, *p), *c);
+  @ behavior in_MOVING_RIGHT:
+  @   assumes c->mode == MLCA_R_MOVING_RIGHT;
+  @   ensures (c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT) && mlca_r_next(\old(*c), *i, *p, mlca_r_first_MOVING_RIGHT(\old(*c), *i, *p), *c);
+  @ behavior not_a_state:
+  @   assumes !(c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT);
+  @   ensures (c->mode == MLCA_R_IDLE || c->mode == MLCA_R_WAITING || c->mode == MLCA_R_MOVING_LEFT || c->mode == MLCA_R_MOVING_RIGHT) && mlca_r_next(\old(*c), *i, *p, -1, *c);
+  @ complete behaviors;
+  @ disjoint behaviors;
   @*/
 void mlca_r_step(mlca_r_ctx_t *c, const mlca_r_inputs_t *i, const mlca_r_params_t *p, mlca_r_outputs_t *o)
 {
     mlca_r_ctx_t next = *c;
+    const mlca_r_state_t mode = c->mode;
     if ((!i->N)) { /* reset: not N (Alg. 1, l.4-7), from every mode */
         next.mode = MLCA_R_IDLE;
-    } else if (c->mode == MLCA_R_IDLE) {
+    } else if (mode == MLCA_R_IDLE) {
         next.mode = mlca_r_to_IDLE(c, i, p);
-    } else if (c->mode == MLCA_R_WAITING) {
+    } else if (mode == MLCA_R_WAITING) {
         next.mode = mlca_r_to_WAITING(c, i, p);
-    } else if (c->mode == MLCA_R_MOVING_LEFT) {
+    } else if (mode == MLCA_R_MOVING_LEFT) {
         next.mode = mlca_r_to_MOVING_LEFT(c, i, p);
-    } else if (c->mode == MLCA_R_MOVING_RIGHT) {
+    } else if (mode == MLCA_R_MOVING_RIGHT) {
         next.mode = mlca_r_to_MOVING_RIGHT(c, i, p);
     } else {
         mlca_r_restart(&next); /* the mode is not a state: restart in the fallback mode */
     }
-    /*@ assert stepped: mlca_r_next(*c, *i, *p, mlca_r_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
     mlca_r_outputs(&next, i, p, o);
     *c = next;
 }
