@@ -70,3 +70,34 @@ def test_dot_and_mermaid_draw_every_transition(capsys: pytest.CaptureFixture[str
     assert mermaid.startswith("stateDiagram-v2\n") and "[*] --> IDLE" in mermaid
     assert "    WAITING --> IDLE: 2. N and (L or R)" in mermaid
     assert dot.count(" -> ") == 1 + sum(len(machine.outgoing(s)) for s in machine.states)
+
+
+def test_scxml_refuses_a_machine_with_data_and_names_what_it_cannot_carry(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The step event carries booleans only: a param, or a guard that compares a number, is named in one line,
+    and the other formats still draw the machine."""
+    conveyor = ROOT / "tests" / "fixtures" / "conveyor_stop.toml"
+    assert main(["diagram", "--format", "scxml", str(conveyor)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"{conveyor}: error: SCXML is not drawn for machines with data (its param NEAR); use dot, mermaid or svg"
+    ]
+    assert main(["diagram", "--format", "mermaid", str(conveyor)]) == 0
+    counter = tmp_path / "counter.toml"
+    counter.write_text(
+        "[machine]\nname = 'C'\ninitial = 'A'\nstates = ['A', 'B']\n\n[inputs]\ngo = { doc = 'go', cite = 'x' }\n\n"
+        "[variables]\nn = { type = 'int', initial = 0, range = [0, 3], every = 'min(n + 1, 3)', doc = 'n', cite = 'x' }\n\n"
+        "[[transition]]\nid = 'ab'\nfrom = 'A'\nto = 'B'\nwhen = 'go and n >= 2'\ncite = 'x'\n",
+        encoding="utf-8",
+    )
+    assert main(["diagram", "--format", "scxml", str(counter)]) == 2
+    assert "(its variable n)" in capsys.readouterr().err
+    edge = tmp_path / "edge.toml"
+    edge.write_text(
+        "[machine]\nname = 'E'\ninitial = 'A'\nstates = ['A', 'B']\n\n[inputs]\ngo = { doc = 'go', cite = 'x' }\n\n"
+        "[[transition]]\nid = 'rise'\nfrom = 'A'\nto = 'B'\nwhen = 'go and 2 > 1'\ncite = 'x'\n",
+        encoding="utf-8",
+    )
+    assert main(["diagram", "--format", "scxml", str(edge)]) == 2
+    assert "(rise's guard computes on numbers)" in capsys.readouterr().err

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from mlca_verify.escape import terminal
+from mlca_verify.json_types import JsonObject
 from mlca_verify.logic.equiv import EquivalenceResult, Region
 from mlca_verify.logic.property_diff import PropertyChange
 from mlca_verify.logic.results import Counterexample, Outcome, Result, Step
@@ -221,7 +221,7 @@ def summary_text(results: Sequence[Result]) -> str:
     return line + "; all as expected"
 
 
-def check_document(specs: Sequence[tuple[str, str, str, Sequence[Result]]]) -> dict[str, Any]:
+def check_document(specs: Sequence[tuple[str, str, str, Sequence[Result]]]) -> JsonObject:
     """The `mlca-verify check --json` document (schema mlca-verify.check/1)."""
     return {
         "schema": CHECK_SCHEMA,

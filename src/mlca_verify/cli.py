@@ -30,14 +30,15 @@ from mlca_verify.cli_base import (
 from mlca_verify.codegen import drift, foreign, generate, write
 from mlca_verify.conform import CHECKS, conform
 from mlca_verify.conform.outcome import CheckOutcome
-from mlca_verify.diagram import FORMATS
+from mlca_verify.diagram import FORMATS, Undrawable
 from mlca_verify.diagram import render as render_diagram
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
 from mlca_verify.evidence import check_replay, collect, read_closed_loop, write_bundle
 from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import read_regular, write_atomic
-from mlca_verify.logic import check_all, compare
+from mlca_verify.json_types import JsonObject
+from mlca_verify.logic import check_all, equivalence
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.lemmas import lemma_scripts
 from mlca_verify.logic.property_diff import property_changes
@@ -299,10 +300,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
         say(f"fallback: a context whose state names no state now restarts in {now} (was {was})\n")
     meaning = property_changes(old.machine, new.machine, args.timeout_ms)
     say(check_report.meaning_text(meaning))
-    if old.machine.has_data or new.machine.has_data:
-        say("equivalence: not compared (machines with data are compared by their verdicts only)")
-    else:
-        _say_equivalence(old, new, args.timeout_ms)
+    _say_equivalence(old, new, args.timeout_ms)
     regressions = [c.prop for c in changes if c.regression]
     weakened = [c.prop for c in meaning if c.regression and c.kind != "assumption" and c.prop not in regressions]
     if regressions:
@@ -326,7 +324,10 @@ def cmd_diff(args: argparse.Namespace) -> int:
 
 
 def _say_equivalence(old: LoadedSpec, new: LoadedSpec, timeout_ms: int) -> None:
-    found = compare(old.machine, new.machine, timeout_ms, all_regions=True)
+    found = equivalence(old.machine, new.machine, timeout_ms)
+    if found is None:
+        say("equivalence: not compared (machines with data are compared by their verdicts only)")
+        return
     names = old.machine.input_names + tuple(n for n in new.machine.input_names if n not in old.machine.input_names)
     say(check_report.diff_text(old.machine.name, new.machine.name, found, names))
 
@@ -454,9 +455,10 @@ def cmd_tests(args: argparse.Namespace) -> int:
 
 def cmd_diagram(args: argparse.Namespace) -> int:
     machine = load_spec(args.spec, compare=False).machine
-    if machine.has_data and args.format == "scxml":
-        raise UsageError.at(args.spec, "SCXML is not drawn for machines with data (use dot, mermaid or svg)")
-    text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
+    try:
+        text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
+    except Undrawable as err:
+        raise UsageError.at(args.spec, str(err)) from None
     if args.out:
         write_text(args.out, text)
     else:
@@ -502,7 +504,7 @@ def _no_constant(name: str) -> object:
     raise ValueError(f"{name} is not a number here")
 
 
-def _replay(path: Path) -> dict[str, Any]:
+def _replay(path: Path) -> JsonObject:
     """The replay document given to `evidence --replay`, read and its shape checked before the long work."""
     data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
     try:

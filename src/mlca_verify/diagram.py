@@ -15,7 +15,18 @@ from __future__ import annotations
 from xml.sax.saxutils import escape, quoteattr
 
 from mlca_verify.escape import one_line, terminal, xml_comment, xml_text
-from mlca_verify.model import Const, Expr, Machine, Not, StateIn, Transition, Var, as_binop, show
+from mlca_verify.model import (
+    Const,
+    Expr,
+    Machine,
+    Not,
+    StateIn,
+    Transition,
+    Var,
+    as_binop,
+    is_boolean_only,
+    show,
+)
 
 FORMATS = ("dot", "mermaid", "scxml")
 DOT_TEXT_LIMIT = 1_000  # characters of spec text in one DOT string; escaped, at most 10 bytes each
@@ -99,8 +110,12 @@ def to_mermaid(m: Machine) -> str:
     return "\n".join(lines) + "\n"
 
 
+class Undrawable(ValueError):
+    """The machine holds what the format cannot carry; the message names the first such element."""
+
+
 def js_expr(expr: Expr) -> str:
-    """An ECMAScript condition over the inputs carried by the `step` event."""
+    """An ECMAScript condition over the boolean inputs carried by the `step` event."""
     if isinstance(expr, Const):
         return "true" if expr.value else "false"
     if isinstance(expr, Var):
@@ -114,9 +129,25 @@ def js_expr(expr: Expr) -> str:
     return {"and": f"({a} && {b})", "or": f"({a} || {b})", "->": f"(!{a} || {b})", "<->": f"({a} === {b})"}[expr.op]
 
 
+def _scxml_refusal(m: Machine) -> str | None:
+    """Why SCXML cannot carry this machine (its step event holds boolean inputs only), or None."""
+    parts = (("param", m.params), ("signal", m.signals), ("variable", m.variables), ("definition", m.definitions))
+    for kind, items in (*parts, ("output", m.outputs)):
+        if items:
+            return f"its {kind} {items[0].name}"
+    for t in m.transitions:  # every name is an input now; a number written in a guard is what is left
+        if not is_boolean_only(t.guard):
+            return f"{t.id}'s guard computes on numbers"
+    return None
+
+
 def to_scxml(m: Machine) -> str:
     """SCXML with one event, `step`, whose data holds the inputs. SCXML takes the first enabled transition in
-    document order, which is first-match semantics; with no enabled transition the event changes nothing."""
+    document order, which is first-match semantics; with no enabled transition the event changes nothing.
+    Raises Undrawable for a machine with data, which the event's booleans cannot carry."""
+    refusal = _scxml_refusal(m)
+    if refusal is not None:
+        raise Undrawable(f"SCXML is not drawn for machines with data ({refusal}); use dot, mermaid or svg")
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f"<!-- {xml_comment(caption(m))} -->",
@@ -147,4 +178,4 @@ def render(m: Machine, fmt: str) -> str:
     return {"dot": to_dot, "mermaid": to_mermaid, "scxml": to_scxml}[fmt](m)
 
 
-__all__ = ["FORMATS", "caption", "js_expr", "render"]
+__all__ = ["FORMATS", "Undrawable", "caption", "js_expr", "render"]

@@ -6,12 +6,12 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from mlca_verify.codegen import drift, generate, machine_ir
 from mlca_verify.conform.generated_code import SUITE, Subject
 from mlca_verify.conform.outcome import CHECKS, CheckOutcome, run_checks
 from mlca_verify.errors import UsageError
+from mlca_verify.json_types import JsonObject
 from mlca_verify.layout import Layout
 from mlca_verify.spec import LoadedSpec
 
@@ -27,7 +27,7 @@ class Conformance:
     def ok(self) -> bool:
         return all(o.ok for o in self.outcomes)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "path": self.spec.path,
             "sha256": self.spec.sha256,

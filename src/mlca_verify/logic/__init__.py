@@ -6,13 +6,13 @@ import time
 
 from mlca_verify.logic.boolean import Checker
 from mlca_verify.logic.datachecks import check_data_machine
-from mlca_verify.logic.equiv import compare
+from mlca_verify.logic.equiv import EquivalenceResult, compare
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import Machine
 
-__all__ = ["check_all", "compare"]
+__all__ = ["check_all", "compare", "equivalence"]
 
 
 def check_all(
@@ -41,3 +41,11 @@ def check_all(
             )
         )
     return results
+
+
+def equivalence(old: Machine, new: Machine, timeout_ms: int = DEFAULT_TIMEOUT_MS) -> EquivalenceResult | None:
+    """Where two machines differ, every region of it, by the boolean engine; None where either has data (such
+    machines are compared by their verdicts only)."""
+    if old.has_data or new.has_data:
+        return None
+    return compare(old, new, timeout_ms, all_regions=True)

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
+from mlca_verify.json_types import JsonObject
 from mlca_verify.model import Verdict
 
 # the engine that decided a property ("" where none did): the explicit-state search, BMC, k-induction, PDR, both
@@ -35,8 +36,8 @@ class Outcome:
     next: str | None
     machine: str | None = None
 
-    def to_json(self) -> dict[str, Any]:
-        data: dict[str, Any] = {"transition": self.transition, "cite": self.cite, "next": self.next}
+    def to_json(self) -> JsonObject:
+        data: JsonObject = {"transition": self.transition, "cite": self.cite, "next": self.next}
         if self.machine is not None:
             data["machine"] = self.machine
         return data
@@ -58,8 +59,8 @@ class Step:
     variables: dict[str, Number] = field(default_factory=dict)
     outputs: dict[str, Number] = field(default_factory=dict)
 
-    def to_json(self) -> dict[str, Any]:
-        data: dict[str, Any] = {"state": self.state, "inputs": dict(self.inputs), **self.outcome.to_json()}
+    def to_json(self) -> JsonObject:
+        data: JsonObject = {"state": self.state, "inputs": dict(self.inputs), **self.outcome.to_json()}
         if self.alternatives:
             data["alternatives"] = [a.to_json() for a in self.alternatives]
         for key in ("signals", "definitions", "variables", "outputs"):
@@ -77,8 +78,8 @@ class Counterexample:
     params: dict[str, Number] = field(default_factory=dict)  # in a machine with data: the params of the run
     point: bool = False  # one valuation, not a run: a lemma's counterexample (its one step holds the values)
 
-    def to_json(self) -> dict[str, Any]:
-        data: dict[str, Any] = {"steps": [s.to_json() for s in self.steps], "loop_start": self.loop_start}
+    def to_json(self) -> JsonObject:
+        data: JsonObject = {"steps": [s.to_json() for s in self.steps], "loop_start": self.loop_start}
         if self.params:
             data["params"] = dict(self.params)
         if self.point:
@@ -99,7 +100,7 @@ class Proof:
     assumptions: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "engine": self.engine,
             "parametric": self.parametric,
@@ -129,7 +130,7 @@ class Result:
     def ok(self) -> bool:
         return self.verdict == self.expected
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "property": self.prop,
             "kind": self.kind,

@@ -6,9 +6,9 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from mlca_verify.errors import ToolError
+from mlca_verify.json_types import JsonObject
 from mlca_verify.tools import C_FLAGS, run
 
 SUPPORT = Path(__file__).resolve().parent / "cortex_m4"
@@ -35,7 +35,7 @@ class TargetRun:
     def agrees(self) -> bool:
         return not self.first_difference and self.exit_code == 0 and len(self.lines) == self.host_lines
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonObject:
         return {
             "board": self.board,
             "cpu": "cortex-m4",
