@@ -1,7 +1,8 @@
 """Rewrite every command block in the docs with the command's current output.
 
 A block is a fenced `text` block right after a comment `<!-- $ mlca-verify ARGS -->`. tests/test_docs.py fails
-when a block differs from what the command prints; run `.venv/bin/python scripts/refresh_docs.py` to refresh.
+when a block differs from what the command prints; run `.venv/bin/python scripts/refresh_docs.py [DOC...]` to
+refresh every doc, or the ones named.
 Each command runs in a new interpreter from the repository's root, as a user runs it: what a process built
 before (a test worker's other tests) cannot reach its output.
 """
@@ -15,7 +16,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = [ROOT / "docs" / "findings.md", ROOT / "README.md"]
+DOCS = [ROOT / "docs" / "findings.md", ROOT / "README.md", ROOT / "docs" / "tutorial.md"]
 BLOCK = re.compile(r"(<!-- \$ mlca-verify (?P<args>[^\n]*?) -->\n```text\n)(?P<body>.*?)(```)", re.DOTALL)
 
 
@@ -39,7 +40,8 @@ if __name__ == "__main__":
     import os
 
     os.chdir(ROOT)
+    chosen = [Path(a).resolve() for a in sys.argv[1:]]  # some of the docs, or all of them
     for doc in DOCS:
-        if doc.exists():
+        if doc.exists() and (not chosen or doc in chosen):
             doc.write_text(refresh(doc.read_text(encoding="utf-8")), encoding="utf-8")
     sys.exit(0)

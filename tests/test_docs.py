@@ -86,3 +86,19 @@ def test_readme_states_the_loaders_limits() -> None:
     assert f"`within` is at most {WITHIN_LIMIT:,} steps" in text
     assert f"must lie in 1..{WITHIN_LIMIT:,} steps" in text
     assert "1,000 steps for" not in text and "at most 1,000 steps, and" not in text
+
+
+def test_the_tutorials_spec_excerpts_are_its_files() -> None:
+    """Each TOML excerpt the tutorial shows is, line for line, part of the first version of its spec, and the
+    fixed version differs from it only in the order of the transitions (and its header comment)."""
+    tutorial = (ROOT / "docs" / "tutorial.md").read_text(encoding="utf-8")
+    first = (ROOT / "docs" / "tutorial" / "stairwell_v1.toml").read_text(encoding="utf-8")
+    fixed = (ROOT / "docs" / "tutorial" / "stairwell.toml").read_text(encoding="utf-8")
+    excerpts = re.findall(r"```toml\n(.*?)```", tutorial, re.DOTALL)
+    assert len(excerpts) == 4 and all(excerpt in first for excerpt in excerpts)
+
+    def body(text: str) -> list[str]:
+        return sorted(line for line in text.splitlines() if not line.startswith("#"))
+
+    assert body(first) == body(fixed) and first.index('"dim"') < first.index('"pressed_again"')
+    assert fixed.index('"pressed_again"') < fixed.index('"dim"')

@@ -53,6 +53,7 @@ from mlca_verify.testgen.command import tests as run_tests
 from mlca_verify.testgen.suite import DEPTH
 from mlca_verify.tools import run
 from mlca_verify.version import __version__
+from mlca_verify.words import count
 
 __all__ = ["EXIT_FINDING", "EXIT_INTERRUPTED", "EXIT_OK", "EXIT_USAGE", "Parser", "entry", "main", "write_json"]
 
@@ -319,7 +320,7 @@ def cmd_diff(args: argparse.Namespace) -> int:
         )
     if regressions or weakened or assumed:
         return EXIT_FINDING
-    say(f"\nno regression: every property that held before still holds ({len(changes)} verdicts changed)")
+    say(f"\nno regression: every property that held before still holds ({count(len(changes), 'verdict')} changed)")
     return EXIT_OK
 
 
@@ -483,7 +484,9 @@ def cmd_evidence(args: argparse.Namespace) -> int:
         raise UsageError.at(db, "results database not found")
     writable_folder(Path(args.out))
     spec = load_spec(args.spec, confine=not args.allow_outside)
-    work = "proofs, conformance (Frama-C WP takes up to a minute), readings"
+    parts = ("proofs", "conformance (Frama-C WP takes up to a minute)")
+    extra = (("a test suite", not args.no_tests), ("readings", bool(readings)), ("closed-loop runs", db is not None))
+    work = ", ".join((*parts, *(name for name, given in extra if given)))
     say(f"collecting evidence for {args.spec}: {work}", flush=True)
     runs = None
     if db is not None:  # read through the results database's reader, before the long work starts
