@@ -23,7 +23,7 @@ _DEFINITION = re.compile(r"_def_([A-Za-z0-9_]+)\(")
 _HELPER = re.compile(r"_((?:min|max|abs)(?:_[id])?)\(")  # the C helpers are per type: min_i on ints, min_d on reals
 _MODE_CASE = re.compile(r"c\.mode == State\.([A-Za-z0-9_]+):")  # the Python `_fired`'s case of one mode
 _STATE_FUNCTION = re.compile(r"\w+_state_t \w+\(")  # a C function that returns a mode (a direct step's chain)
-_STATE_CASE = re.compile(r"\(c->mode == ([A-Z0-9_]+)\) \{")  # a mode's block of a direct step
+_STATE_CASE = re.compile(r"\((?:c->)?mode == ([A-Z0-9_]+)\) \{")  # a mode's block of a direct step
 # the C function of one mode's chain: the transition's number, or the next mode itself in a direct step
 _MODE_FUNCTION = re.compile(r"_(?:fired|to)_([A-Za-z0-9_]+)\(")
 _OTHERWISE = re.compile(r"otherwise: the mode is kept")
