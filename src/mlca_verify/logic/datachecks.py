@@ -11,7 +11,7 @@ import z3
 
 from mlca_verify.logic.binary64 import Rounding
 from mlca_verify.logic.finite import Finite, Paths, Tracer, prebuild, replay
-from mlca_verify.logic.induction import Bad, Limits, Path, Search, decide, lasso, witnesses
+from mlca_verify.logic.induction import Bad, Limits, Path, Search, Unrollings, decide, lasso, witnesses
 from mlca_verify.logic.lemmas import decide as decide_lemma
 from mlca_verify.logic.replay64 import follows
 from mlca_verify.logic.results import Counterexample, Kind, Number, Outcome, Proof, Result, Step
@@ -89,6 +89,7 @@ class DataChecker:
         self.assumed = tuple(a.id for a in machine.assumptions)
         self._cover: dict[str, Path] | None = None
         self._systems: dict[tuple[object, ...], System] = {}
+        self.unrollings = Unrollings(limits.timeout_ms)  # one per system and kind, shared by every query
         self._rounding: dict[bool, Rounding] = {}
         self.unsafe: set[str] = set()  # the elements whose div: check does not hold
         self._step_cone: frozenset[str] | None = None
@@ -251,10 +252,10 @@ class DataChecker:
                 if found is not None:
                     return found
                 if not deepen:
-                    quick = decide(system, real, bad, self.limits, certify, quick=True)
+                    quick = decide(system, real, bad, self.limits, certify, quick=True, pool=self.unrollings)
                     if quick.answer != "unknown":
                         return quick
-        return decide(system, real, bad, self.limits, certify)
+        return decide(system, real, bad, self.limits, certify, pool=self.unrollings)
 
     def finite(self) -> Finite | None:
         """The explicit-state engine of this machine (params at their defaults), or None where it cannot run."""
@@ -401,7 +402,7 @@ class DataChecker:
             system, real = self.systems((), self.parametric)
             targets: dict[str, Bad] = {f"reach:{s}": _reaches(s) for s in self.m.states}
             targets.update({f"fires:{t.id}": _fires(t.id) for t in self.m.transitions})
-            self._cover = witnesses(system, real, targets, self.limits)
+            self._cover = witnesses(system, real, targets, self.limits, self.unrollings)
         return self._cover
 
     def reach(self, state: str) -> Decision:
@@ -578,7 +579,7 @@ class DataChecker:
             decided = self.explicit_loop(finite, live, real, restricted)
             if decided is not None:
                 return decided
-        answer, path = lasso(real, restricted, self.limits)
+        answer, path = lasso(real, restricted, self.limits, self.unrollings)
         search = Search(answer, path, "lasso", self.limits.lasso)
         if answer == "reachable" and path is not None:
             return _looping(search, self.trace(path))

@@ -13,9 +13,10 @@ from typing import Literal
 
 import z3
 
+from mlca_verify.logic import spacer
 from mlca_verify.logic.results import Engine
 from mlca_verify.logic.solver import budget
-from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System
+from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, variable_bounds
 from mlca_verify.model import Var
 
 Bad = Callable[[System, Frame, StepInputs, Frame, StepTerms], z3.BoolRef]
@@ -54,10 +55,13 @@ class Search:
     reason: str = ""
     notes: list[str] = field(default_factory=list)
     on_real: bool = False  # decided on the real system after an abstract counterexample proved spurious
+    invariant: z3.BoolRef | None = None  # PDR's certificate as a formula over its frame `p0`
 
 
 class Unrolling:
-    """Frames 0..n of a system in one incremental solver; from the initial frame when `initial`."""
+    """Frames 0..n of a system in one incremental solver; from the initial frame when `initial`. Step n holds
+    only under its activation literal, so a query about the first k steps asks for those k (`check(k, ...)`) and
+    leaves the later frames free: one unrolling serves queries of every depth, and every property."""
 
     def __init__(self, system: System, initial: bool, tag: str, timeout_ms: int) -> None:
         self.system = system
@@ -68,6 +72,7 @@ class Unrolling:
         self.frames = [system.frame(f"{tag}0")]
         self.inputs: list[StepInputs] = []
         self.terms: list[StepTerms] = []
+        self.active: list[z3.BoolRef] = []
         self.solver.add(system.well_formed(self.frames[0]))
         if initial:
             self.solver.add(system.init(self.frames[0]))
@@ -77,31 +82,64 @@ class Unrolling:
         n = len(self.inputs)
         pre, i, post = self.frames[n], self.system.inputs(f"{self.tag}{n}"), self.system.frame(f"{self.tag}{n + 1}")
         link, terms = self.system.step(pre, i, post)
-        self.solver.add(link, self.system.assumptions(pre, i), self.system.well_formed(post))
+        on = z3.Bool(f"!step@{self.tag}{n}")
+        self.solver.add(z3.Implies(on, z3.And(link, self.system.assumptions(pre, i), self.system.well_formed(post))))
         self.frames.append(post)
         self.inputs.append(i)
         self.terms.append(terms)
+        self.active.append(on)
         return n
+
+    def reach(self, steps: int) -> None:
+        """Extend to at least `steps` steps."""
+        while len(self.inputs) < steps:
+            self.extend()
 
     def bad(self, bad: Bad, n: int) -> z3.BoolRef:
         return bad(self.system, self.frames[n], self.inputs[n], self.frames[n + 1], self.terms[n])
 
-    def check(self, *extra: z3.BoolRef) -> z3.CheckSatResult:
-        return self.solver.check(*extra)
+    def check(self, steps: int, *extra: z3.BoolRef) -> z3.CheckSatResult:
+        """Is there a run of the first `steps` steps (from any frame, or the initial one) that meets `extra`?"""
+        self.reach(steps)
+        return self.solver.check(*self.active[:steps], *extra)
 
     def path(self, steps: int, loop_start: int | None = None) -> Path:
         n = steps
         return Path(self.system, self.solver.model(), self.frames[: n + 1], self.inputs[:n], self.terms[:n], loop_start)
 
 
-def deeper(base: Unrolling, real: System, bad: Bad, limits: Limits) -> Search:
-    """Carry BMC on from where `base` stopped, up to `limits.depth` steps."""
-    for k in range(len(base.inputs), limits.depth):
-        base.extend()
-        found = base_case(base, real, bad, k, limits)
+class Unrollings:
+    """The unrollings of a machine's systems, one from the initial frame and one from any frame for each, shared
+    by all of the machine's queries: a spec's cost grows with its deepest query, not with its number of
+    properties."""
+
+    def __init__(self, timeout_ms: int) -> None:
+        self.timeout_ms = timeout_ms
+        self._made: dict[tuple[int, bool], tuple[System, Unrolling]] = {}
+        self._invariants: dict[int, tuple[System, list[z3.BoolRef]]] = {}
+
+    def invariants(self, system: System) -> list[z3.BoolRef]:
+        """The inductive invariants found so far on `system` (checked certificates, over PDR's frame `p0`)."""
+        return self._invariants.setdefault(id(system), (system, []))[1]
+
+    def of(self, system: System, initial: bool) -> Unrolling:
+        key = (id(system), initial)  # the system is kept beside its unrolling, so its id is never reused
+        if key not in self._made:
+            tag = f"{'b' if initial else 'i'}{len(self._made)}_"
+            self._made[key] = (system, Unrolling(system, initial, tag, self.timeout_ms))
+        return self._made[key][1]
+
+
+def deeper(base: Unrolling, real: System, bad: Bad, limits: Limits, *, start: int, pool: Unrollings) -> Search:
+    """Carry BMC on from step `start` (where k-induction stopped), up to `limits.depth` steps. An unknown's k is
+    the number of steps searched."""
+    for k in range(start, limits.depth):
+        found = base_case(base, real, bad, k, limits, pool=pool)
+        if found is not None and found.answer == "unknown" and found.engine == "bmc":
+            found.k = k
         if found is not None:
             return found
-    return Search("unknown", engine="bmc", reason=f"no counterexample within {limits.depth} steps")
+    return Search("unknown", engine="bmc", k=limits.depth, reason=f"no counterexample within {limits.depth} steps")
 
 
 Probes = dict[tuple[str, ...], list[z3.ExprRef]]
@@ -115,8 +153,7 @@ def concretize(
     ask the same). None when some step has none. `real` may be an unrolling of the real system to reuse: the
     run is pinned inside a push and pop."""
     run = real if isinstance(real, Unrolling) else Unrolling(real, True, "r", abstract.timeout_ms)
-    while len(run.inputs) < steps:
-        run.extend()
+    run.reach(steps)
     run.solver.push()
     try:
         return _follow(abstract, run, bad, steps, {} if probes is None else probes)
@@ -154,29 +191,31 @@ def _follow(abstract: Unrolling, run: Unrolling, bad: Bad, steps: int, probes: P
                 return None
             pins += [v == value for v, value in zip(run.inputs[n].signals.values(), probes[key], strict=False)]
         run.solver.add(*pins)
-    if run.check(run.bad(bad, steps - 1)) != z3.sat:
+    if run.check(steps, run.bad(bad, steps - 1)) != z3.sat:
         return None
     return run.path(steps)
 
 
-def witnesses(system: System, real: System, targets: dict[str, Bad], limits: Limits) -> dict[str, Path]:
+def witnesses(
+    system: System, real: System, targets: dict[str, Bad], limits: Limits, pool: Unrollings
+) -> dict[str, Path]:
     """One BMC run for many targets (the built-in reachability checks): for each, the shortest real run whose last
     step satisfies it, up to `limits.depth` steps; targets not met are left out."""
-    run = Unrolling(system, True, "w", limits.timeout_ms)
+    run = pool.of(system, True)
     found: dict[str, Path] = {}
     dropped: set[str] = set()  # met only by abstract runs that no real run follows: left to a search of its own
     probes: Probes = {}
-    shared = Unrolling(real, True, "r", limits.timeout_ms)  # real runs along each witness, pinned in turn
+    shared = pool.of(real, True)  # real runs along each witness, pinned in turn
     for k in range(limits.depth):
         left = {name: bad for name, bad in targets.items() if name not in found and name not in dropped}
         if not left:
             break
-        run.extend()
+        run.reach(k + 1)
         bad_here = {name: run.bad(bad, k) for name, bad in left.items()}
-        if run.check(z3.Or(*bad_here.values())) == z3.unsat:
+        if run.check(k + 1, z3.Or(*bad_here.values())) == z3.unsat:
             continue  # no target at this depth: one query instead of one per target
         for name, bad in left.items():
-            if run.check(bad_here[name]) != z3.sat:
+            if run.check(k + 1, bad_here[name]) != z3.sat:
                 continue
             path = run.path(k + 1) if system is real else concretize(run, shared, bad, k + 1, probes)
             if path is None:
@@ -186,51 +225,50 @@ def witnesses(system: System, real: System, targets: dict[str, Bad], limits: Lim
     return found
 
 
-def k_induction(system: System, bad: Bad, real: System, limits: Limits) -> tuple[Search, Unrolling]:
+def k_induction(system: System, bad: Bad, real: System, limits: Limits, pool: Unrollings) -> Search:
     """BMC and the induction step on `system` (the real one, or an abstraction of it), for k = 0, 1, ...: a bad
     step from the initial frame is replayed on the real system and reported; an induction step that closes
-    proves."""
-    base = Unrolling(system, True, "b", limits.timeout_ms)
-    step = Unrolling(system, False, "i", limits.timeout_ms)
+    proves. Both run on the system's shared unrollings; the induction step assumes no bad step before step k
+    for this query only."""
+    base, step = pool.of(system, True), pool.of(system, False)
+    good: list[z3.BoolRef] = []
     for k in range(limits.induction + 1):
-        base.extend()
-        found = base_case(base, real, bad, k, limits)
+        found = base_case(base, real, bad, k, limits, pool=pool)
         if found is not None:
-            return found, base
-        step.extend()
-        closed = step.check(step.bad(bad, k))
-        if closed == z3.unsat:
-            return Search("unreachable", engine="k-induction", k=k + 1), base
-        step.solver.add(z3.Not(step.bad(bad, k)))
-    return Search("unknown", engine="k-induction", k=limits.induction + 1, reason="induction not closed"), base
+            return found
+        step.reach(k + 1)
+        here = step.bad(bad, k)
+        if step.check(k + 1, *good, here) == z3.unsat:
+            return Search("unreachable", engine="k-induction", k=k + 1)
+        good.append(z3.Not(here))
+    return Search("unknown", engine="k-induction", k=limits.induction + 1, reason="induction not closed")
 
 
-def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits) -> Search | None:
-    """Is step k of `base` bad? A real counterexample, an unknown, or None (no bad step k; recorded)."""
-    answer = base.check(base.bad(bad, k))
+def base_case(base: Unrolling, real: System, bad: Bad, k: int, limits: Limits, *, pool: Unrollings) -> Search | None:
+    """Is step k of `base` bad? A real counterexample, an unknown, or None (no bad step k)."""
+    base.reach(k + 1)
+    answer = base.check(k + 1, base.bad(bad, k))
     if answer == z3.unknown:
         why = stopped(base.solver.reason_unknown(), limits.timeout_ms)
         return Search("unknown", engine="bmc", reason=f"BMC at depth {k + 1}: {why}")
     if answer == z3.sat:
         if base.system is real:
             return Search("reachable", base.path(k + 1), "bmc", k + 1)
-        path = concretize(base, real, bad, k + 1)
+        path = concretize(base, pool.of(real, True), bad, k + 1)
         if path is not None:
             return Search("reachable", path, "bmc", k + 1)
         why = f"the abstraction has a bad run of {k + 1} steps that no real run follows"
         return Search("unknown", engine="abstraction", reason=why)
-    base.solver.add(z3.Not(base.bad(bad, k)))
     return None
 
 
 def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     """Spacer (z3's PDR for constrained Horn clauses, with global guidance) on `system`: an inductive invariant
-    that excludes every bad step. The clauses are solved in a z3 context of their own, rebuilt there from their
-    text: Spacer's search follows the order in which z3 made its terms, which in a shared context (or through a
-    translation into a new one) depends on every term made before, so the same query could come out proved in one
-    call and unknown in the next; rebuilt from text its answer is the same in every call and every process."""
-    f0, i, f1 = system.frame("p0"), system.inputs("p0"), system.frame("p1")
-    link, terms = system.step(f0, i, f1)
+    that excludes every bad step. The clauses are written as SMT-LIB text (built in a z3 context of their own,
+    from the formulas' text) and solved by a z3 process of their own (`logic.spacer`): in this process Spacer's
+    search would depend on every check run before, so the same query could come out proved in one command and
+    unknown in the next; in its own process its answer is the same in every call."""
+    f0, i, f1, link, terms = system.transition("p")
     ctx = z3.Context()
     named = {t.decl().name(): t for t in [*f0.terms(), *i.terms(), *f1.terms()]}
     decls = {name: z3.Const(name, t.sort().translate(ctx)) for name, t in named.items()}
@@ -242,33 +280,28 @@ def pdr(system: System, bad: Bad, timeout_ms: int) -> Search:
     state = [decls[t.decl().name()] for t in f0.terms()]
     inv = z3.Function("Inv", *[t.sort() for t in state], z3.BoolSort(ctx))
     err = z3.Function("Err", z3.BoolSort(ctx))
-    engine = z3.Fixedpoint(ctx=ctx)
-    engine.set(engine="spacer")
-    budget(engine, timeout_ms)
-    engine.set("xform.slice", False)
-    engine.set("xform.inline_linear", False)
-    engine.set("xform.inline_eager", False)
-    engine.set("spacer.global", True)
-    engine.register_relation(inv, err)
+    clauses = z3.Fixedpoint(ctx=ctx)
+    clauses.register_relation(inv, err)
     after = [decls[t.decl().name()] for t in f1.terms()]
-    engine.declare_var(*decls.values())
-    engine.rule(inv(*state), here(z3.And(system.init(f0), system.well_formed(f0))))
+    clauses.declare_var(*decls.values())
+    clauses.rule(inv(*state), here(z3.And(system.init(f0), system.well_formed(f0))))
     step = here(z3.And(link, system.assumptions(f0, i), system.well_formed(f1)))
     moves = z3.And(inv(*state), step)
-    engine.rule(inv(*after), moves)
-    engine.rule(err(), z3.And(moves, here(bad(system, f0, i, f1, terms))))
-    try:
-        answer = engine.query(err())
-    except z3.Z3Exception as exc:  # a timeout cancels the query
-        return Search("unknown", engine="pdr", reason=f"PDR: {stopped(exc.value.decode(errors='replace'), timeout_ms)}")
-    if answer == z3.sat:
+    clauses.rule(inv(*after), moves)
+    clauses.rule(err(), z3.And(moves, here(bad(system, f0, i, f1, terms))))
+    answer, printed = spacer.solve(clauses.sexpr(), "Err", timeout_ms)
+    if answer == "sat":
         return Search("reachable", engine="pdr", reason="PDR found a bad step reachable (on the abstraction)")
-    if answer == z3.unknown:
-        return Search("unknown", engine="pdr", reason=f"PDR: {stopped(engine.reason_unknown(), timeout_ms)}")
-    found = z3.simplify(z3.substitute_vars(engine.get_cover_delta(-1, inv), *state))
-    certificate = found.translate(z3.main_ctx())
+    if answer == "unknown":
+        return Search("unknown", engine="pdr", reason=f"PDR: {stopped(printed or 'unknown', timeout_ms)}")
+    defined = spacer.invariant(printed, inv, state)
+    if defined is None:
+        return Search("unknown", engine="pdr", reason="PDR proved it, but its invariant could not be read back")
+    certificate = z3.simplify(defined).translate(z3.main_ctx())
     checked = check_certificate(system, bad, certificate, timeout_ms)
-    return Search("unreachable", engine="pdr", certificate=certificate.sexpr(), certificate_checked=checked)
+    return Search(
+        "unreachable", engine="pdr", certificate=certificate.sexpr(), certificate_checked=checked, invariant=certificate
+    )
 
 
 def stopped(raw: str, timeout_ms: int) -> str:
@@ -289,8 +322,7 @@ def _same(term: z3.ExprRef, among: list[z3.ExprRef]) -> bool:
 
 def check_certificate(system: System, bad: Bad, certificate: z3.BoolRef, timeout_ms: int) -> bool:
     """A query of its own: the certificate holds initially, every step keeps it, and no step from it is bad."""
-    f0, i, f1 = system.frame("c0"), system.inputs("c0"), system.frame("c1")
-    link, terms = system.step(f0, i, f1)
+    f0, i, f1, link, terms = system.transition("c")
     pdr_frame = system.frame("p0")
     at0 = z3.substitute(certificate, *zip(pdr_frame.terms(), f0.terms(), strict=True))
     at1 = z3.substitute(certificate, *zip(pdr_frame.terms(), f1.terms(), strict=True))
@@ -308,17 +340,19 @@ def check_certificate(system: System, bad: Bad, certificate: z3.BoolRef, timeout
     return True
 
 
-def lasso(real: System, restricted: Callable[[StepTerms], z3.BoolRef], limits: Limits) -> tuple[Answer, Path | None]:
+def lasso(
+    real: System, restricted: Callable[[StepTerms], z3.BoolRef], limits: Limits, pool: Unrollings
+) -> tuple[Answer, Path | None]:
     """The shortest run that reaches a frame, then returns to it through steps that all satisfy `restricted`."""
-    run = Unrolling(real, True, "l", limits.timeout_ms)
+    run = pool.of(real, True)
     for n in range(limits.lasso):
-        run.extend()
         k = n + 1
+        run.reach(k)
         loops = []
         for j in range(k):
             same = z3.And(*[a == b for a, b in zip(run.frames[j].looped(), run.frames[k].looped(), strict=True)])
             loops.append(z3.And(same, *[restricted(run.terms[m]) for m in range(j, k)]))
-        answer = run.check(z3.Or(*loops))
+        answer = run.check(k, z3.Or(*loops))
         if answer == z3.sat:
             model = run.solver.model()
             start = next(j for j, loop in enumerate(loops) if z3.is_true(model.eval(loop, model_completion=True)))
@@ -329,60 +363,82 @@ def lasso(real: System, restricted: Callable[[StepTerms], z3.BoolRef], limits: L
 
 
 def decide(
-    system: System, real: System, bad: Bad, limits: Limits, certify: bool = True, *, quick: bool = False
+    system: System,
+    real: System,
+    bad: Bad,
+    limits: Limits,
+    certify: bool = True,
+    *,
+    quick: bool = False,
+    pool: Unrollings | None = None,
 ) -> Search:
     """k-induction first. When a bad step is expected (`certify` false: a witness is wanted), deeper BMC, then PDR;
     otherwise PDR (for a proof, or for the certificate of a k-induction proof), then deeper BMC. `quick` stops
-    after k-induction (what it leaves open is unknown)."""
-    found, base = k_induction(system, bad, real, limits)
+    after k-induction (what it leaves open is unknown). The unrollings come from `pool` (the machine's, shared by
+    its queries), or are made for this query alone."""
+    pool = Unrollings(limits.timeout_ms) if pool is None else pool
+    found = k_induction(system, bad, real, limits, pool)
     if quick and found.answer == "unknown":
         return found
     if found.engine == "abstraction":
-        return refined(real, bad, limits, certify, found)
+        return refined(real, bad, limits, certify, found, pool=pool)
     if found.answer == "reachable" or (found.answer == "unknown" and found.engine == "bmc"):
         return found
+    start = (found.k or 0) if found.answer == "unknown" else 0
+    witness = Search("unknown", k=start)
     if found.answer == "unknown" and not certify:
-        witness = deeper(base, real, bad, limits)
+        witness = deeper(pool.of(system, True), real, bad, limits, start=start, pool=pool)
         if witness.engine == "abstraction":
-            return refined(real, bad, limits, certify, witness)
+            return refined(real, bad, limits, certify, witness, pool=pool)
         if witness.answer == "reachable":
             return witness
     if found.answer == "unreachable":
-        return certified(found, system, bad, limits.timeout_ms) if certify else found
+        return certified(found, system, bad, limits.timeout_ms, pool) if certify else found
     proof = pdr(system, bad, limits.timeout_ms)
+    if proof.answer == "unreachable" and proof.certificate_checked:
+        pool.invariants(system).append(proof.invariant)
     if proof.answer == "unreachable":
         proof.k = found.k
         proof.notes.append(f"k-induction did not close up to k = {found.k}")
         return proof
     if certify:
-        witness = deeper(base, real, bad, limits)
+        witness = deeper(pool.of(system, True), real, bad, limits, start=start, pool=pool)
         if witness.engine == "abstraction":
-            return refined(real, bad, limits, certify, witness)
+            return refined(real, bad, limits, certify, witness, pool=pool)
         if witness.answer == "reachable":
             return witness
-    reason = f"induction not closed at k = {found.k}; {proof.reason}; no counterexample within {len(base.inputs)} steps"
+    reason = f"induction not closed at k = {found.k}; {proof.reason}; no counterexample within {witness.k} steps"
     return Search("unknown", engine="k-induction+pdr", k=found.k, reason=reason)
 
 
-def certified(found: Search, system: System, bad: Bad, timeout_ms: int) -> Search:
-    """A k-induction proof with a certificate: `true` when it is 1-inductive (no step from any frame is bad),
-    else PDR's invariant; each checked by queries of its own."""
+def certified(found: Search, system: System, bad: Bad, timeout_ms: int, pool: Unrollings) -> Search:
+    """A k-induction proof with a certificate, each checked by queries of its own: `true` when it is 1-inductive
+    (no step from any frame is bad); else what is already known of the system, when it is inductive and
+    excludes every bad step (the variables' declared ranges, and the invariants PDR found for its other
+    properties); else PDR's invariant."""
     if found.k == 1:
         found.certificate, found.certificate_checked = (
             "true",
             check_certificate(system, bad, z3.BoolVal(True), timeout_ms),
         )
         return found
+    known = z3.And(*variable_bounds(system.m, system.frame("p0").variables), *pool.invariants(system))
+    if check_certificate(system, bad, known, timeout_ms):
+        found.certificate, found.certificate_checked = z3.simplify(known).sexpr(), True
+        found.notes.append("certificate: the declared ranges and the invariants proved before")
+        return found
     proof = pdr(system, bad, timeout_ms)
     found.certificate, found.certificate_checked = proof.certificate, proof.certificate_checked
+    if proof.answer == "unreachable" and proof.certificate_checked:
+        pool.invariants(system).append(proof.invariant)
     if proof.answer != "unreachable":
         found.notes.append(f"no certificate: {proof.reason or proof.answer}")
     return found
 
 
-def refined(real: System, bad: Bad, limits: Limits, certify: bool, spurious: Search) -> Search:
+def refined(real: System, bad: Bad, limits: Limits, certify: bool, spurious: Search, *, pool: Unrollings) -> Search:
     """Decide again on the real system, after an abstract counterexample that no real run follows."""
-    found = decide(real, real, bad, limits, certify)
+    found = decide(real, real, bad, limits, certify, pool=pool)
     found.notes.append(f"on the real system: {spurious.reason}")
     found.on_real = True
     return found

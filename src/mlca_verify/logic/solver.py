@@ -21,8 +21,8 @@ GUARD_MIN_MS = 60_000
 RLIMIT_MAX = 4_000_000_000  # z3 keeps the limit in 32 bits
 
 
-def budget(query: z3.Solver | z3.Fixedpoint, timeout_ms: int) -> None:
-    """Give a solver (or PDR's engine) the budget of `timeout_ms`: its resource limit, and the guard's clock."""
+def budget(query: z3.Solver, timeout_ms: int) -> None:
+    """Give a solver the budget of `timeout_ms`: its resource limit, and the guard's clock."""
     query.set("rlimit", min(timeout_ms * RESOURCE_PER_MS, RLIMIT_MAX))
     query.set("timeout", max(timeout_ms * GUARD, GUARD_MIN_MS))
 

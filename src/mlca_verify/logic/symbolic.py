@@ -182,6 +182,7 @@ class System:
         self.shared_params = {p.name: z3.Const(f"param!{p.name}", sort_of(p.type)) for p in machine.params}
         self.prev_types = [self.type_of(p.arg) for p in self.prevs]
         self._template: tuple[Frame, StepInputs, Frame, z3.BoolRef, StepTerms] | None = None
+        self._transitions: dict[str, tuple[Frame, StepInputs, Frame, z3.BoolRef, StepTerms]] = {}
         self._defaults: dict[str, z3.ExprRef] | None = None
         variables = {v.name for v in machine.variables}
         self.assumptions_read_frame = any(
@@ -276,6 +277,14 @@ class System:
             moved(terms.pre, pre),
             moved(terms.post, post),
         )
+
+    def transition(self, tag: str) -> tuple[Frame, StepInputs, Frame, z3.BoolRef, StepTerms]:
+        """Frames `{tag}0` and `{tag}1`, the inputs between them and the step that links them, made once per tag
+        (the one-step queries of proofs and certificates ask for the same tags again and again)."""
+        if tag not in self._transitions:
+            pre, i, post = self.frame(f"{tag}0"), self.inputs(f"{tag}0"), self.frame(f"{tag}1")
+            self._transitions[tag] = (pre, i, post, *self.step(pre, i, post))
+        return self._transitions[tag]
 
     def build_step(self, pre: Frame, i: StepInputs, post: Frame) -> tuple[z3.BoolRef, StepTerms]:
         before = self.valuation(pre, i)
