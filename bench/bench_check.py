@@ -1,13 +1,15 @@
 """Benchmark `check`: the shipped specs, machines with data, then synthetic machines of growing size.
 
-Run on demand: `.venv/bin/python bench/bench_check.py [--quick] [--reps N] [--t-min-sample N]`. Prints wall
-times side by side in one run:
+Run on demand: `.venv/bin/python bench/bench_check.py [--quick] [--reps N] [--t-min-sample N] [--sharing]`.
+Prints wall times side by side in one run:
 the shipped specs (in process, and as a fresh `mlca-verify` process, interpreter and z3 start-up included),
 MLCA-T's parametric proof against one proof per value of T_MIN, a counter of 1,000,000 values proved
 symbolically against an explicit BFS of the same machine, a pedestrian crossing with a timer against the same
-crossing with the timer expanded into states, then machines of 10 to 2,000 states and 4 to 12 inputs, with the
-growth factor between consecutive sizes. Where two things are compared, the times are medians of interleaved
-repetitions.
+crossing with the timer expanded into states, timers of growing length, z3's resources per ms, the machine's
+shared unrollings against one per query, the time per property and per model on the public models and the
+project's corpus, then machines of 10 to 2,000 states and 4 to 12 inputs, with the growth factor between
+consecutive sizes. Where two things are compared, the times are medians of interleaved repetitions.
+`--sharing` runs only the shared unrollings and the corpora.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import tempfile
 import time
 from collections import deque
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import z3
@@ -29,8 +32,10 @@ from mlca_verify.codegen import generate
 from mlca_verify.errors import Loc
 from mlca_verify.logic import check_all
 from mlca_verify.logic.boolean import Checker
-from mlca_verify.logic.induction import Limits
+from mlca_verify.logic.datachecks import DataChecker
+from mlca_verify.logic.induction import Limits, Unrolling, Unrollings
 from mlca_verify.logic.results import Result
+from mlca_verify.logic.symbolic import System
 from mlca_verify.model import BinOp, Expr, Input, Invariant, Liveness, Machine, Not, StateIn, Transition, Var
 from mlca_verify.spec import load_spec, load_text
 
@@ -465,8 +470,8 @@ def resources(reps: int) -> None:
     crossing's `reach:WALK`, and a BMC query of 400 steps of it; the engine's RESOURCE_PER_MS should be about
     the budget over these times."""
     from mlca_verify.logic import solver as budgets
-    from mlca_verify.logic.datachecks import DataChecker, _reaches
-    from mlca_verify.logic.induction import Unrolling, pdr
+    from mlca_verify.logic.datachecks import _reaches
+    from mlca_verify.logic.induction import pdr
 
     machine = load_spec(MACHINES / "crossing_10hz.toml").machine
     system, real = DataChecker(machine, Limits(steps=0)).systems((), False)
@@ -479,7 +484,7 @@ def resources(reps: int) -> None:
         run = Unrolling(real, True, "b", spend_ms)
         for _ in range(400):
             run.extend()
-        run.check(z3.Or(*[run.bad(_reaches("WALK"), k) for k in range(0, 400, 7)]))
+        run.check(400, z3.Or(*[run.bad(_reaches("WALK"), k) for k in range(0, 400, 7)]))
 
     units = spend_ms * budgets.RESOURCE_PER_MS
     pdr_s, bmc_s = interleaved(reps, pdr_run, bmc_run)
@@ -487,6 +492,79 @@ def resources(reps: int) -> None:
     print(f"  PDR spends it in {pdr_s:.3f} s: {units / pdr_s / 1000:,.0f} units per ms")
     print(f"  BMC of 400 steps answers in {bmc_s:.3f} s (within the budget, or at it)")
     print()
+
+
+class Unshared(Unrollings):
+    """The engine before its queries shared unrollings: every query builds its own."""
+
+    def of(self, system: System, initial: bool) -> Unrolling:
+        return Unrolling(system, initial, "b" if initial else "i", self.timeout_ms)
+
+
+def checked(machine: Machine, shared: bool) -> list[Result]:
+    checker = DataChecker(machine, Limits())
+    if not shared:
+        checker.unrollings = Unshared(checker.limits.timeout_ms)
+    return checker.run_all()
+
+
+SHARING = [
+    "spec/mlca_t.toml",
+    *(f"tests/machines/{n}.toml" for n in ("crossing_10hz", "watchdog_100hz", "acc_modes_50hz")),
+]
+
+
+def with_invariants(n: int) -> Machine:
+    """The window watchdog with `n` more invariants, each a bound on its counter that holds (k-induction)."""
+    text = (ROOT / "tests/machines/watchdog_100hz.toml").read_text()
+    for j in range(n):
+        bound = f"state == WINDOW -> since < TIMEOUT + {j}"
+        text += f'\n[[invariant]]\nid = "bound-{j}"\nexpr = "{bound}"\ncite = "bench"\n'
+    return load_text(text, "<bench>")
+
+
+def sharing(reps: int) -> None:
+    """One unrolling per system, shared by all of a machine's queries, against one per query."""
+    print("shared unrollings: whole check (s), median of interleaved pairs   shared  one per query  ratio")
+    for path in SHARING:
+        machine = load_spec(ROOT / path).machine
+        same = [r.verdict for r in checked(machine, True)] == [r.verdict for r in checked(machine, False)]
+        a, b = interleaved(reps, lambda m=machine: checked(m, True), lambda m=machine: checked(m, False))
+        print(f"  {path:56} {a:7.3f}  {b:13.3f}  {a / b:5.2f}{'' if same else '  VERDICTS DIFFER'}")
+    print("  the watchdog with N more invariants        shared  one per query  per added property (shared, one each)")
+    base: tuple[float, float] | None = None
+    for n in (0, 10, 20, 40):
+        machine = with_invariants(n)
+        a, b = interleaved(reps, lambda m=machine: checked(m, True), lambda m=machine: checked(m, False))
+        if base is None:
+            base = (a, b)
+            print(f"  {n:4} more{'':38} {a:7.3f}  {b:13.3f}")
+        else:
+            print(f"  {n:4} more{'':38} {a:7.3f}  {b:13.3f}  {(a - base[0]) / n:.4f}, {(b - base[1]) / n:.4f}")
+    print()
+
+
+KIND2_MEDIAN_S = 0.77  # per model, start-up included, on the FMCAD'08 Lustre set: a quoted figure, not re-measured
+
+
+def corpora(reps: int) -> None:
+    """The public models with published verdicts (tests/public/) and the project's own corpus (tests/machines/):
+    the median time per property (in process) and per model (a fresh `mlca-verify check` process)."""
+    cli = ROOT / ".venv" / "bin" / "mlca-verify"
+    print("corpora                          models  properties  median s/property  median s/model (process)")
+    for name, folder in (("public models (tests/public)", "tests/public"), ("own corpus (tests/machines)", MACHINES)):
+        files = sorted((ROOT / folder).glob("*.toml"))
+        per_property = [r.seconds for f in files for r in check_all(load_spec(f).machine) if r.seconds > 0]
+        runs = [
+            partial(subprocess.run, [str(cli), "check", str(f), "--quiet"], check=True, capture_output=True)
+            for f in files
+        ]
+        per_model = [statistics.median(timed(run) for _ in range(reps)) for run in runs]
+        print(
+            f"  {name:30} {len(files):6} {len(per_property):11} {statistics.median(per_property):18.4f}"
+            f"  {statistics.median(per_model):8.3f}"
+        )
+    print(f"  targets: under 0.1 s per property; per model at most Kind 2's median, {KIND2_MEDIAN_S} s\n")
 
 
 def growth(quick: bool) -> None:
@@ -518,7 +596,14 @@ if __name__ == "__main__":
     parser.add_argument("--quick", action="store_true", help="sizes up to 500 states only")
     parser.add_argument("--reps", type=int, default=3, help="repetitions of each timing (median or best)")
     parser.add_argument("--t-min-sample", type=int, default=4, help="values of T_MIN proved one at a time (<= 100)")
+    parser.add_argument(
+        "--sharing", action="store_true", help="only the shared unrollings and the corpora's times per property"
+    )
     args = parser.parse_args()
+    if args.sharing:
+        sharing(args.reps)
+        corpora(args.reps)
+        sys.exit(0)
     shipped(args.reps)
     sys.stdout.flush()
     mlca_t_sweep(args.reps, args.t_min_sample)
@@ -530,5 +615,9 @@ if __name__ == "__main__":
     timers(args.reps)
     sys.stdout.flush()
     resources(args.reps)
+    sys.stdout.flush()
+    sharing(args.reps)
+    sys.stdout.flush()
+    corpora(args.reps)
     sys.stdout.flush()
     growth(args.quick)
