@@ -17,9 +17,9 @@ from pathlib import Path
 
 from mlca_verify.layout import Layout
 from mlca_verify.spec import load_spec
-from mlca_verify.testgen import target
+from mlca_verify.testgen import DEPTH, target
 from mlca_verify.testgen.command import generate_fresh, host_run, write_suite
-from mlca_verify.testgen.suite import DEPTH, generate
+from mlca_verify.testgen.suite import generate
 
 ROOT = Path(__file__).resolve().parent.parent
 SPECS = ["spec/mlca.toml", "spec/mlca_r.toml", "spec/mlca_t.toml"]

@@ -27,31 +27,21 @@ from mlca_verify.cli_base import (
     write_json,
     write_text,
 )
-from mlca_verify.codegen import drift, foreign, generate, write
-from mlca_verify.conform import CHECKS, conform
-from mlca_verify.conform.outcome import CheckOutcome
-from mlca_verify.diagram import FORMATS, Undrawable
-from mlca_verify.diagram import render as render_diagram
+from mlca_verify.conform.outcome import CHECKS
+from mlca_verify.diagram import FORMATS
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
-from mlca_verify.evidence import check_replay, collect, read_closed_loop, write_bundle
-from mlca_verify.evidence import now as evidence_now
 from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.json_types import JsonObject
 from mlca_verify.logic import check_all, equivalence
 from mlca_verify.logic.induction import Limits
-from mlca_verify.logic.lemmas import lemma_scripts
-from mlca_verify.logic.property_diff import property_changes
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
-from mlca_verify.regression_tests import emit
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec_diff import transition_changes, verdict_changes
-from mlca_verify.testgen.command import tests as run_tests
-from mlca_verify.testgen.suite import DEPTH
-from mlca_verify.tools import run
+from mlca_verify.testgen import DEPTH
 from mlca_verify.version import __version__
 from mlca_verify.words import count
 
@@ -245,6 +235,8 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def _write_smt2(loaded: list[LoadedSpec], out: Path, parametric: bool, timeout_ms: int) -> None:
+    from mlca_verify.logic.lemmas import lemma_scripts
+
     scripts = {
         name: text for spec in loaded for name, text in lemma_scripts(spec.machine, parametric, timeout_ms).items()
     }
@@ -279,6 +271,8 @@ def _write_traces(checked: list[tuple[LoadedSpec, list[Result]]], out: Path) -> 
 
 
 def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path, out: Path) -> None:
+    from mlca_verify.regression_tests import emit
+
     for spec, results in checked:
         if spec.machine.semantics != "first-match":
             say(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
@@ -292,6 +286,8 @@ def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path,
 
 
 def cmd_diff(args: argparse.Namespace) -> int:
+    from mlca_verify.logic.property_diff import property_changes
+
     old, new = (load_spec(p, confine=not args.allow_outside) for p in (args.left, args.right))
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
@@ -351,6 +347,8 @@ def writable_folder(folder: Path) -> None:
 
 
 def cmd_gen(args: argparse.Namespace) -> int:
+    from mlca_verify.codegen import drift, foreign, generate, write
+
     out = Path(args.out)
     files: dict[str, str] = {}
     for path in args.specs or _default_specs():
@@ -398,6 +396,9 @@ def _say_unexpected(spec: LoadedSpec) -> None:
 
 
 def cmd_conform(args: argparse.Namespace) -> int:
+    from mlca_verify.conform import conform
+    from mlca_verify.conform.outcome import CheckOutcome
+
     names = list(CHECKS) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
     unknown = [n for n in names if n not in CHECKS]
     if unknown:
@@ -429,6 +430,8 @@ def cmd_conform(args: argparse.Namespace) -> int:
 
 def svg_of(dot_text: str) -> str:
     """Lay a DOT graph out as SVG with Graphviz."""
+    from mlca_verify.tools import run
+
     ran = run(["dot", "-Tsvg"], timeout=60, stdin=dot_text)
     if ran.returncode != 0:
         raise ToolError(f"error: dot failed: {ran.output.strip()}")
@@ -436,6 +439,8 @@ def svg_of(dot_text: str) -> str:
 
 
 def cmd_tests(args: argparse.Namespace) -> int:
+    from mlca_verify.testgen.command import tests as run_tests
+
     specs = [load_spec(p, compare=False) for p in args.specs]
     ok = True
     for spec in specs:
@@ -455,6 +460,9 @@ def cmd_tests(args: argparse.Namespace) -> int:
 
 
 def cmd_diagram(args: argparse.Namespace) -> int:
+    from mlca_verify.diagram import Undrawable
+    from mlca_verify.diagram import render as render_diagram
+
     machine = load_spec(args.spec, compare=False).machine
     try:
         text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
@@ -478,6 +486,9 @@ def default_readings(spec: Path) -> list[str]:
 
 
 def cmd_evidence(args: argparse.Namespace) -> int:
+    from mlca_verify.evidence import collect, read_closed_loop, write_bundle
+    from mlca_verify.evidence import now as evidence_now
+
     readings = default_readings(Path(args.spec)) if args.readings is None else args.readings
     db = Path(args.db) if args.db else None
     if db is not None and not db.is_file():
@@ -509,6 +520,8 @@ def _no_constant(name: str) -> object:
 
 def _replay(path: Path) -> JsonObject:
     """The replay document given to `evidence --replay`, read and its shape checked before the long work."""
+    from mlca_verify.evidence import check_replay
+
     data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
     try:
         return check_replay(json.loads(data.decode("utf-8"), parse_constant=_no_constant), str(path))

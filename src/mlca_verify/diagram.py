@@ -12,8 +12,6 @@ characters, ending in "...": Graphviz refuses a quoted string longer than 16,384
 
 from __future__ import annotations
 
-from xml.sax.saxutils import escape, quoteattr
-
 from mlca_verify.escape import one_line, terminal, xml_comment, xml_text
 from mlca_verify.model import (
     Const,
@@ -145,6 +143,8 @@ def to_scxml(m: Machine) -> str:
     """SCXML with one event, `step`, whose data holds the inputs. SCXML takes the first enabled transition in
     document order, which is first-match semantics; with no enabled transition the event changes nothing.
     Raises Undrawable for a machine with data, which the event's booleans cannot carry."""
+    from xml.sax.saxutils import escape, quoteattr  # its import loads urllib: only where SCXML is drawn
+
     refusal = _scxml_refusal(m)
     if refusal is not None:
         raise Undrawable(f"SCXML is not drawn for machines with data ({refusal}); use dot, mermaid or svg")

@@ -1,4 +1,7 @@
-"""`mlca-verify conform`: prove and test that the generated code does what its spec says."""
+"""`mlca-verify conform`: prove and test that the generated code does what its spec says.
+
+The code generator and the checks are imported when a conformance run starts, so that reading `CHECKS` (the
+command line's help) costs nothing."""
 
 from __future__ import annotations
 
@@ -7,8 +10,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from mlca_verify.codegen import drift, generate, machine_ir
-from mlca_verify.conform.generated_code import SUITE, Subject
 from mlca_verify.conform.outcome import CHECKS, CheckOutcome, run_checks
 from mlca_verify.errors import UsageError
 from mlca_verify.json_types import JsonObject
@@ -38,6 +39,8 @@ class Conformance:
 
 
 def _up_to_date(spec: LoadedSpec, generated: Path, template_dir: Path | None) -> CheckOutcome:
+    from mlca_verify.codegen import drift, generate
+
     files = generate(spec, generated) if template_dir is None else generate(spec, generated, template_dir)
     problems = [d for d in drift(files, generated) if d.path in files]
     if problems:
@@ -72,6 +75,9 @@ def conform(
     template_dir: Path | None = None,
 ) -> Conformance:
     """Run `checks` on the code for `spec` found in `generated`; `report` sees each outcome as it lands."""
+    from mlca_verify.codegen import machine_ir
+    from mlca_verify.conform.generated_code import SUITE, Subject
+
     ir = machine_ir(spec, generated)
     layout, fresh = _present(spec, generated, ir.module, template_dir, report)
     with tempfile.TemporaryDirectory(prefix="mlca-conform-") as build:

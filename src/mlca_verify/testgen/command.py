@@ -21,13 +21,13 @@ from mlca_verify.files import write_atomic
 from mlca_verify.layout import Layout
 from mlca_verify.model import Machine
 from mlca_verify.spec import LoadedSpec
-from mlca_verify.testgen import target
+from mlca_verify.testgen import DEPTH, target
 from mlca_verify.testgen.emit import Header, c_suite, objectives_json, python_suite
 from mlca_verify.testgen.explain import fill
 from mlca_verify.testgen.formats import sarif
 from mlca_verify.testgen.measure import Coverage, build_runner, c_coverage, python_coverage
 from mlca_verify.testgen.search import Sample
-from mlca_verify.testgen.suite import DEPTH, Suite, generate
+from mlca_verify.testgen.suite import Suite, generate
 from mlca_verify.tools import run
 
 Say = Callable[[str], None]

@@ -13,10 +13,9 @@ import z3
 
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, value_of
 from mlca_verify.model import Machine, prevs_of
+from mlca_verify.testgen import DEPTH
 from mlca_verify.testgen.objectives import objectives
 from mlca_verify.testgen.search import Found, Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
-
-DEPTH = 30  # the longest run searched
 
 
 @dataclass(frozen=True)
