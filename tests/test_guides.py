@@ -1,0 +1,46 @@
+"""Every spec in the guides (docs/guides/*.md, each fenced `toml` block a whole machine) loads, and every one of
+its verdicts is the one it expects, none unknown: a guide's pattern cannot go stale as the language grows."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from mlca_verify.logic import check_all
+from mlca_verify.spec import load_text
+from tests.conftest import ROOT
+
+BLOCK = re.compile(r"```toml\n(.*?)```", re.DOTALL)
+SPECS = [
+    pytest.param(text, id=f"{path.stem}-{n}")
+    for path in sorted((ROOT / "docs" / "guides").glob("*.md"))
+    for n, text in enumerate(BLOCK.findall(path.read_text(encoding="utf-8")))
+]
+
+
+def test_the_guides_hold_specs() -> None:
+    assert len(SPECS) >= 5
+
+
+@pytest.mark.parametrize("text", SPECS)
+def test_each_pattern_is_decided_as_it_expects(text: str) -> None:
+    results = check_all(load_text(text, "<guide>"))
+    assert [r.prop for r in results if not r.ok] == []
+    assert [r.prop for r in results if r.verdict == "unknown"] == []
+
+
+def test_a_pattern_that_is_wrong_is_caught() -> None:
+    """The observer saturated at its bound's largest value (the mistake the guide warns about) is violated."""
+    observer = next(p.values[0] for p in SPECS if 'name = "Observer"' in str(p.values[0]))
+    wrong = str(observer).replace("min(need_age + 1, 31)", "min(need_age + 1, 30)")
+    results = {r.prop: r for r in check_all(load_text(wrong, "<guide>"))}
+    found = results["moves-only-after-T"]
+    assert found.verdict == "violated" and found.counterexample is not None
+    assert len(found.counterexample.steps) == 31
+
+
+def test_every_guide_is_linked_from_the_readme() -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    for path in (ROOT / "docs" / "guides").glob("*.md"):
+        assert f"docs/guides/{path.name}" in readme, path.name
