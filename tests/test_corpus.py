@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from dataclasses import replace
 from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 from bench.bench_corpus import weakened
@@ -20,6 +21,7 @@ from tests.bruteforce_data import DataExplorer
 from tests.conftest import ROOT
 from tests.test_data_vs_bruteforce import check_replay
 
+SCXML_NS = "{http://www.w3.org/2005/07/scxml}"
 CORPUS = sorted((ROOT / "tests" / "machines").glob("*.toml"))
 
 
@@ -58,13 +60,11 @@ def test_every_diagram_format_of_a_corpus_machine(
         assert out.stat().st_size > 0
     assert (tmp_path / "d.svg").read_text(encoding="utf-8").lstrip().startswith(("<?xml", "<svg"))
     capsys.readouterr()
-    if not load_spec(spec).machine.has_data:
-        assert main(["diagram", "--format", "scxml", str(spec)]) == 0
-        assert capsys.readouterr().out.startswith('<?xml version="1.0" encoding="UTF-8"?>')
-        return
-    assert main(["diagram", "--format", "scxml", str(spec)]) == 2  # SCXML is drawn for machines without data
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "SCXML is not drawn for machines with data" in err[0]
+    assert main(["diagram", "--format", "scxml", str(spec)]) == 0
+    scxml = capsys.readouterr().out
+    assert scxml.startswith('<?xml version="1.0" encoding="UTF-8"?>')
+    states = [s.get("id") for s in ElementTree.fromstring(scxml.split("\n", 1)[1]).iter(f"{SCXML_NS}state")]
+    assert states == list(load_spec(spec).machine.states)
 
 
 def test_diff_against_a_weakened_copy_is_a_regression(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

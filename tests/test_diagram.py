@@ -2,27 +2,32 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import random
 import subprocess
 from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree
 
 import pytest
 
 from mlca_verify.cli import main
+from mlca_verify.codegen import generate, write
 from mlca_verify.diagram import render
+from mlca_verify.loading import import_generated
 from mlca_verify.spec import load_spec
 from tests.bruteforce import Explicit
 from tests.conftest import ROOT
 
 REPLAY = ROOT / "tools" / "scxml" / "replay.js"
+_COUNT = itertools.count()
 DETERMINISTIC = ["spec/mlca.toml", "spec/mlca_r.toml", "tests/corpus/counter.toml", "tests/corpus/shadowed.toml"]
 
 
-def scion(scxml: Path, sequences: list[list[dict[str, bool]]]) -> list[list[list[str]]]:
-    done = subprocess.run(
-        ["node", str(REPLAY), str(scxml)], input=json.dumps(sequences), capture_output=True, text=True, check=True
-    )
+def scion(scxml: Path, sequences: list[list[dict[str, Any]]], data: bool = False) -> list[list[Any]]:
+    command = ["node", str(REPLAY), str(scxml), *(["data"] if data else [])]
+    done = subprocess.run(command, input=json.dumps(sequences), capture_output=True, text=True, check=True)
     return [json.loads(line) for line in done.stdout.splitlines()]
 
 
@@ -72,32 +77,65 @@ def test_dot_and_mermaid_draw_every_transition(capsys: pytest.CaptureFixture[str
     assert dot.count(" -> ") == 1 + sum(len(machine.outgoing(s)) for s in machine.states)
 
 
-def test_scxml_refuses_a_machine_with_data_and_names_what_it_cannot_carry(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """The step event carries booleans only: a param, or a guard that compares a number, is named in one line,
-    and the other formats still draw the machine."""
-    conveyor = ROOT / "tests" / "fixtures" / "conveyor_stop.toml"
-    assert main(["diagram", "--format", "scxml", str(conveyor)]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert err == [
-        f"{conveyor}: error: SCXML is not drawn for machines with data (its param NEAR); use dot, mermaid or svg"
+DATA_MACHINES = [
+    "spec/mlca_t.toml",
+    "tests/machines/acc_modes_50hz.toml",
+    "tests/machines/watchdog_100hz.toml",
+    "tests/machines/thermostat_1hz.toml",
+    "tests/machines/charger_1hz.toml",
+    "tests/fixtures/conveyor_stop.toml",
+]
+
+
+def _sample(rng: random.Random, low: float, high: float, integral: bool) -> float:
+    """A sample in range most of the time, else just outside it (invalid)."""
+    roll = rng.random()
+    if roll < 0.08:
+        return low - 1
+    if roll < 0.16:
+        return high + 1
+    value = rng.uniform(low, high)
+    return float(round(value)) if integral else value
+
+
+@pytest.mark.parametrize("spec", DATA_MACHINES)
+def test_scxml_of_a_machine_with_data_runs_in_scion_like_the_generated_code(spec: str, tmp_path: Path) -> None:
+    """The datamodel's variables and outputs after every step, and the state, are the generated Python's, on
+    random inputs and samples (some outside their ranges), in a W3C SCXML interpreter."""
+    loaded = load_spec(ROOT / spec, compare=False)
+    m = loaded.machine
+    path = tmp_path / "machine.scxml"
+    assert main(["diagram", str(ROOT / spec), "--format", "scxml", "--out", str(path)]) == 0
+    write(generate(loaded, tmp_path / "gen"), tmp_path / "gen")
+    module_file = next((tmp_path / "gen" / "python").glob("*_fsm.py"))
+    code = import_generated(module_file, f"scxml_{module_file.stem}_{next(_COUNT)}")
+    rng = random.Random(11)
+    sequences = [
+        [
+            {
+                **{i.name: rng.random() < 0.6 for i in m.inputs},
+                **{s.name: _sample(rng, float(s.range[0]), float(s.range[1]), s.type == "int") for s in m.signals},
+            }
+            for _ in range(30)
+        ]
+        for _ in range(25)
     ]
-    assert main(["diagram", "--format", "mermaid", str(conveyor)]) == 0
-    counter = tmp_path / "counter.toml"
-    counter.write_text(
-        "[machine]\nname = 'C'\ninitial = 'A'\nstates = ['A', 'B']\n\n[inputs]\ngo = { doc = 'go', cite = 'x' }\n\n"
-        "[variables]\nn = { type = 'int', initial = 0, range = [0, 3], every = 'min(n + 1, 3)', doc = 'n', cite = 'x' }\n\n"
-        "[[transition]]\nid = 'ab'\nfrom = 'A'\nto = 'B'\nwhen = 'go and n >= 2'\ncite = 'x'\n",
-        encoding="utf-8",
-    )
-    assert main(["diagram", "--format", "scxml", str(counter)]) == 2
-    assert "(its variable n)" in capsys.readouterr().err
-    edge = tmp_path / "edge.toml"
-    edge.write_text(
-        "[machine]\nname = 'E'\ninitial = 'A'\nstates = ['A', 'B']\n\n[inputs]\ngo = { doc = 'go', cite = 'x' }\n\n"
-        "[[transition]]\nid = 'rise'\nfrom = 'A'\nto = 'B'\nwhen = 'go and 2 > 1'\ncite = 'x'\n",
-        encoding="utf-8",
-    )
-    assert main(["diagram", "--format", "scxml", str(edge)]) == 2
-    assert "(rise's guard computes on numbers)" in capsys.readouterr().err
+    for sequence, steps in zip(sequences, scion(path, sequences, data=True), strict=True):
+        c = code.Context()
+        assert steps[0]["state"] == [m.initial] and steps[0]["v"] == {v.name: int(v.initial) for v in m.variables}
+        for inputs, seen in zip(sequence, steps[1:], strict=True):
+            out = code.step(c, code.Inputs(**inputs))
+            assert seen["state"] == [code.State(c.mode).name], (inputs, seen)
+            assert seen["v"] == {v.name: getattr(c, v.name) for v in m.variables}, (inputs, seen)
+            assert seen["o"] == {o.name: getattr(out, o.name) for o in m.outputs}, (inputs, seen)
+
+
+def test_scxml_of_a_machine_with_data_parses_with_its_datamodel() -> None:
+    """The document parses, names each state once, and carries the params, variables, outputs and one function
+    per definition."""
+    text = render(load_spec(ROOT / "tests/machines/acc_modes_50hz.toml", compare=False).machine, "scxml")
+    root = ElementTree.fromstring(text)
+    ns = "{http://www.w3.org/2005/07/scxml}"
+    assert [s.get("id") for s in root.iter(f"{ns}state")] == ["OFF", "STANDBY", "ACTIVE", "FAULT"]
+    assert [d.get("id") for d in root.iter(f"{ns}data")] == ["p", "v", "o"]
+    assert "function d0(st, v, e, p)" in text and "function d2(st, v, e, p)" in text

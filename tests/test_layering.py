@@ -20,7 +20,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "errors",
         "files tools model layout",
         "intervals cli_base",
-        "spec logic",  # the loader and the engine: neither imports the other
+        "spec logic statechart",  # the loader and the engine: neither imports the other
         "diagram spec_diff",
         "check_report waves codegen",
         "ci_formats loading",

@@ -22,9 +22,9 @@ from mlca_verify.model import (
     Transition,
     Var,
     as_binop,
-    is_boolean_only,
     show,
 )
+from mlca_verify.statechart import Undrawable
 
 FORMATS = ("dot", "mermaid", "scxml")
 DOT_TEXT_LIMIT = 1_000  # characters of spec text in one DOT string; escaped, at most 10 bytes each
@@ -108,10 +108,6 @@ def to_mermaid(m: Machine) -> str:
     return "\n".join(lines) + "\n"
 
 
-class Undrawable(ValueError):
-    """The machine holds what the format cannot carry; the message names the first such element."""
-
-
 def js_expr(expr: Expr) -> str:
     """An ECMAScript condition over the boolean inputs carried by the `step` event."""
     if isinstance(expr, Const):
@@ -127,27 +123,16 @@ def js_expr(expr: Expr) -> str:
     return {"and": f"({a} && {b})", "or": f"({a} || {b})", "->": f"(!{a} || {b})", "<->": f"({a} === {b})"}[expr.op]
 
 
-def _scxml_refusal(m: Machine) -> str | None:
-    """Why SCXML cannot carry this machine (its step event holds boolean inputs only), or None."""
-    parts = (("param", m.params), ("signal", m.signals), ("variable", m.variables), ("definition", m.definitions))
-    for kind, items in (*parts, ("output", m.outputs)):
-        if items:
-            return f"its {kind} {items[0].name}"
-    for t in m.transitions:  # every name is an input now; a number written in a guard is what is left
-        if not is_boolean_only(t.guard):
-            return f"{t.id}'s guard computes on numbers"
-    return None
-
-
 def to_scxml(m: Machine) -> str:
     """SCXML with one event, `step`, whose data holds the inputs. SCXML takes the first enabled transition in
     document order, which is first-match semantics; with no enabled transition the event changes nothing.
-    Raises Undrawable for a machine with data, which the event's booleans cannot carry."""
+    A machine with data gets an ECMAScript datamodel (`statechart.to_scxml_data`)."""
     from xml.sax.saxutils import escape, quoteattr  # its import loads urllib: only where SCXML is drawn
 
-    refusal = _scxml_refusal(m)
-    if refusal is not None:
-        raise Undrawable(f"SCXML is not drawn for machines with data ({refusal}); use dot, mermaid or svg")
+    if m.has_data:
+        from mlca_verify.statechart import to_scxml_data
+
+        return to_scxml_data(m, caption(m))
     out = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f"<!-- {xml_comment(caption(m))} -->",
