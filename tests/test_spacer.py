@@ -93,3 +93,10 @@ def test_a_missing_solver_is_one_line(monkeypatch: pytest.MonkeyPatch, tmp_path:
         assert "z3's command-line solver not found" in str(err.value) and "\n" not in str(err.value)
     finally:
         spacer.binary.cache_clear()
+
+
+def test_an_error_in_the_clauses_is_unknown_never_a_proof() -> None:
+    """z3 reports a clause it cannot read and goes on without it: Err is then underivable, and it answers unsat.
+    That answer is not taken: any error makes the query unknown, with z3's words on one line."""
+    answer, reason = spacer.solve("(declare-rel Err ())\n(rule (=> undeclared_constant Err))", "Err", 1000)
+    assert answer == "unknown" and "\n" not in reason and "undeclared_constant" in reason

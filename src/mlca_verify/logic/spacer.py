@@ -53,12 +53,21 @@ def solve(clauses: str, query: str, timeout_ms: int) -> tuple[Answer, str]:
     except ToolError as err:
         return "unknown", str(err)
     lines = output.strip().splitlines()
+    errors = [line for line in lines if line.startswith("(error")]
+    if errors:  # z3 goes on after an error, without the clause it could not read: never take its answer then
+        return "unknown", _one_line(errors)
     answers: dict[str, Answer] = {"sat": "sat", "unsat": "unsat", "unknown": "unknown"}
     for n, line in enumerate(lines):
         said = answers.get(line.strip())
         if said is not None:
-            return said, "\n".join(lines[n + 1 :] if said != "unknown" else lines[:n])
-    return "unknown", output.strip()
+            return said, "\n".join(lines[n + 1 :]) if said != "unknown" else _one_line(lines[:n])
+    return "unknown", _one_line(lines)
+
+
+def _one_line(lines: list[str]) -> str:
+    """What z3 said before giving up, on one line (a reason is printed in a table's detail)."""
+    said = "; ".join(line.strip() for line in lines if line.strip())
+    return said if len(said) <= 300 else said[:297] + "..."
 
 
 def invariant(printed: str, relation: z3.FuncDeclRef, frame: list[z3.ExprRef]) -> z3.BoolRef | None:
