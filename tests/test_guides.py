@@ -4,9 +4,12 @@ its verdicts is the one it expects, none unknown: a guide's pattern cannot go st
 from __future__ import annotations
 
 import re
+import shlex
 
 import pytest
+import yaml
 
+from mlca_verify import cli
 from mlca_verify.logic import check_all
 from mlca_verify.spec import load_text
 from tests.conftest import ROOT
@@ -44,3 +47,28 @@ def test_every_guide_is_linked_from_the_readme() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     for path in (ROOT / "docs" / "guides").glob("*.md"):
         assert f"docs/guides/{path.name}" in readme, path.name
+
+
+YAML_BLOCK = re.compile(r"```yaml\n(.*?)```", re.DOTALL)
+
+
+def _commands(node: object) -> list[str]:
+    """Every `mlca-verify` command line in a parsed CI file (its run steps and scripts)."""
+    if isinstance(node, dict):
+        return [c for value in node.values() for c in _commands(value)]
+    if isinstance(node, list):
+        return [c for value in node for c in _commands(value)]
+    if isinstance(node, str):
+        return [line.split("mlca-verify", 1)[1] for line in node.splitlines() if "bin/mlca-verify " in line]
+    return []
+
+
+def test_the_ci_jobs_parse_and_every_command_in_them_is_accepted() -> None:
+    text = (ROOT / "docs" / "guides" / "ci-gate.md").read_text(encoding="utf-8")
+    jobs = [yaml.safe_load(block) for block in YAML_BLOCK.findall(text)]
+    assert len(jobs) == 2
+    commands = [c for job in jobs for c in _commands(job)]
+    assert len(commands) == 6
+    for command in commands:
+        args = cli._parser().parse_args(shlex.split(command))  # a usage error raises
+        assert args.command in ("check", "gen", "diff")
