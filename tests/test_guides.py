@@ -72,3 +72,16 @@ def test_the_ci_jobs_parse_and_every_command_in_them_is_accepted() -> None:
     for command in commands:
         args = cli._parser().parse_args(shlex.split(command))  # a usage error raises
         assert args.command in ("check", "gen", "diff")
+
+
+def test_the_documentation_index_links_every_page_and_only_pages_that_exist() -> None:
+    docs = ROOT / "docs"
+    index = (docs / "README.md").read_text(encoding="utf-8")
+    linked = set(re.findall(r"\]\(([^)#]+)\)", index))
+    for target in linked:
+        assert (docs / target).resolve().is_file(), target
+    pages = [p.relative_to(docs).as_posix() for p in docs.glob("*.md")] + [
+        p.relative_to(docs).as_posix() for folder in ("guides", "reference") for p in (docs / folder).glob("*.md")
+    ]
+    for page in pages:
+        assert page == "README.md" or page in linked, f"docs/README.md does not link {page}"
