@@ -12,7 +12,7 @@ characters, ending in "...": Graphviz refuses a quoted string longer than 16,384
 
 from __future__ import annotations
 
-from mlca_verify.escape import one_line, terminal, xml_comment, xml_text
+from mlca_verify.escape import one_line, terminal, xml_attribute
 from mlca_verify.model import (
     Const,
     Expr,
@@ -24,7 +24,7 @@ from mlca_verify.model import (
     as_binop,
     show,
 )
-from mlca_verify.statechart import Undrawable
+from mlca_verify.statechart import Undrawable, head, transition_note
 
 FORMATS = ("dot", "mermaid", "scxml")
 DOT_TEXT_LIMIT = 1_000  # characters of spec text in one DOT string; escaped, at most 10 bytes each
@@ -127,33 +127,17 @@ def to_scxml(m: Machine) -> str:
     """SCXML with one event, `step`, whose data holds the inputs. SCXML takes the first enabled transition in
     document order, which is first-match semantics; with no enabled transition the event changes nothing.
     A machine with data gets an ECMAScript datamodel (`statechart.to_scxml_data`)."""
-    from xml.sax.saxutils import escape, quoteattr  # its import loads urllib: only where SCXML is drawn
-
     if m.has_data:
         from mlca_verify.statechart import to_scxml_data
 
         return to_scxml_data(m, caption(m))
-    out = [
-        '<?xml version="1.0" encoding="UTF-8"?>',
-        f"<!-- {xml_comment(caption(m))} -->",
-        "<!-- Send one event named 'step' per step, its data an object of booleans: "
-        + escape(", ".join(m.input_names))
-        + " -->",
-    ]
-    if m.semantics != "first-match":
-        out.append("<!-- This machine is nondeterministic; SCXML resolves each choice by document order. -->")
-    out.append(
-        f'<scxml xmlns="http://www.w3.org/2005/07/scxml" version="1.0" name={quoteattr(xml_text(m.name))} '
-        f'initial={quoteattr(m.initial)} datamodel="ecmascript">'
-    )
+    out = head(m, caption(m), f"booleans: {', '.join(m.input_names)}")
     for state in m.states:
-        out.append(f"  <state id={quoteattr(state)}>")
+        out.append(f"  <state id={xml_attribute(state)}>")
         for t in m.outgoing(state):
-            cited = f" ({t.cite})" if t.cite else ""
-            out.append(f"    <!-- {xml_comment(f'{t.id}: {show(t.guard)}{cited}')} -->")
-            out.append(
-                f'    <transition event="step" cond={quoteattr(js_expr(t.guard))} target={quoteattr(t.target)}/>'
-            )
+            out.append(transition_note(t))
+            cond, target = xml_attribute(js_expr(t.guard)), xml_attribute(t.target)
+            out.append(f'    <transition event="step" cond={cond} target={target}/>')
         out.append("  </state>")
     out.append("</scxml>")
     return "\n".join(out) + "\n"

@@ -88,6 +88,20 @@ def xml_text(text: str) -> str:
     return _XML_INVALID.sub(lambda m: _code(m.group()), text)
 
 
+def xml_markup(text: str) -> str:
+    """Text between XML tags: `&`, `<` and `>` as references (the text itself must be XML 1.0: see xml_text)."""
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def xml_attribute(text: str) -> str:
+    """`text` as a quoted XML attribute value: markup and line breaks as references; in single quotes when it holds
+    a double quote and no single one (a JSON string then reads as itself), else in double quotes."""
+    marked = xml_markup(text).replace("\n", "&#10;").replace("\r", "&#13;").replace("\t", "&#9;")
+    if '"' in text and "'" not in text:
+        return f"'{marked}'"
+    return '"' + marked.replace('"', "&quot;") + '"'
+
+
 def xml_comment(text: str) -> str:
     """Text for one line inside an XML comment: no `--`, no trailing `-`, no invalid character."""
     text = printable(text)

@@ -19,9 +19,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from fractions import Fraction
-from html import escape
 
-from mlca_verify.escape import xml_comment, xml_text
+from mlca_verify.escape import xml_attribute, xml_comment, xml_markup, xml_text
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -41,16 +40,7 @@ from mlca_verify.model import (
     show,
 )
 
-SEND = "Send one event named 'step' per step, its data an object of the inputs (booleans) and samples (numbers): "
-
-
-def quoteattr(text: str) -> str:
-    """An XML attribute value, quoted: markup escaped, in single quotes when the value holds double quotes (the
-    JSON strings of names) and no single quote, so that it reads as it is."""
-    marked = escape(text, quote=False)
-    if '"' in text and "'" not in text:
-        return f"'{marked}'"
-    return '"' + marked.replace('"', "&quot;") + '"'
+SEND = "Send one event named 'step' per step, its data an object of "
 
 
 class Undrawable(ValueError):
@@ -168,6 +158,25 @@ class Script:
         return "({" + ", ".join(f"{json.dumps(o.name)}: {self.js(o.expr, at)}" for o in self.m.outputs) + "})"
 
 
+def head(m: Machine, caption: str, sent: str) -> list[str]:
+    """The lines of an SCXML document before its first state (and its datamodel): the caption, what each `step`
+    event carries (`sent`), and the root element."""
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>', f"<!-- {xml_comment(caption)} -->"]
+    lines.append(f"<!-- {xml_comment(SEND + sent)} -->")
+    if m.semantics != "first-match":
+        lines.append("<!-- This machine is nondeterministic; SCXML resolves each choice by document order. -->")
+    name, initial = xml_attribute(xml_text(m.name)), xml_attribute(m.initial)
+    ns = "http://www.w3.org/2005/07/scxml"
+    lines.append(f'<scxml xmlns="{ns}" version="1.0" name={name} initial={initial} datamodel="ecmascript">')
+    return lines
+
+
+def transition_note(t: Transition) -> str:
+    """The comment before a transition: its id, its guard as the spec writes it, and its cite."""
+    cited = f" ({t.cite})" if t.cite else ""
+    return f"    <!-- {xml_comment(f'{t.id}: {show(t.guard)}{cited}')} -->"
+
+
 def to_scxml_data(m: Machine, caption: str) -> str:
     """The SCXML document of `m`, a machine with data; `caption` is its first comment."""
     script = Script(m)
@@ -176,27 +185,22 @@ def to_scxml_data(m: Machine, caption: str) -> str:
     params = "({" + ", ".join(f"{json.dumps(p.name)}: {number(p.default)}" for p in m.params) + "})"
     carried = ", ".join([*m.input_names, *(s.name for s in m.signals)])
     out = [
-        '<?xml version="1.0" encoding="UTF-8"?>',
-        f"<!-- {xml_comment(caption)} -->",
-        f"<!-- {xml_comment(SEND + carried)} -->",
-        f'<scxml xmlns="http://www.w3.org/2005/07/scxml" version="1.0" name={quoteattr(xml_text(m.name))} '
-        f'initial={quoteattr(m.initial)} datamodel="ecmascript">',
+        *head(m, caption, f"the inputs (booleans) and samples (numbers): {carried}"),
         "  <datamodel>",
-        f'    <data id="p" expr={quoteattr(params)}/>',
-        f'    <data id="v" expr={quoteattr(initial_v)}/>',
+        f'    <data id="p" expr={xml_attribute(params)}/>',
+        f'    <data id="v" expr={xml_attribute(initial_v)}/>',
         '    <data id="o" expr="({})"/>',
         "  </datamodel>",
         "  <script>",
-        *(f"    {escape(line, quote=False)}" for line in functions),
+        *(f"    {xml_markup(line)}" for line in functions),
         "  </script>",
     ]
     for state in m.states:
-        out.append(f"  <state id={quoteattr(state)}>")
+        out.append(f"  <state id={xml_attribute(state)}>")
         for t in m.outgoing(state):
-            cited = f" ({t.cite})" if t.cite else ""
-            out.append(f"    <!-- {xml_comment(f'{t.id}: {show(t.guard)}{cited}')} -->")
+            out.append(transition_note(t))
             cond = script.js(t.guard, At(state))
-            out.append(f'    <transition event="step" cond={quoteattr(cond)} target={quoteattr(t.target)}>')
+            out.append(f'    <transition event="step" cond={xml_attribute(cond)} target={xml_attribute(t.target)}>')
             out += _step(script, t, state, t.target)
             out.append("    </transition>")
         if m.otherwise == "stay":
@@ -212,6 +216,6 @@ def to_scxml_data(m: Machine, caption: str) -> str:
 def _step(script: Script, t: Transition | None, source: str, target: str) -> list[str]:
     """The content of a step: the variables (from the state left), then the outputs (over the state entered)."""
     return [
-        f'      <assign location="v" expr={quoteattr(script.moved(t, At(source)))}/>',
-        f'      <assign location="o" expr={quoteattr(script.outputs(At(target)))}/>',
+        f'      <assign location="v" expr={xml_attribute(script.moved(t, At(source)))}/>',
+        f'      <assign location="o" expr={xml_attribute(script.outputs(At(target)))}/>',
     ]
