@@ -122,6 +122,13 @@ class Unrollings:
         """The inductive invariants found so far on `system` (checked certificates, over PDR's frame `p0`)."""
         return self._invariants.setdefault(id(system), (system, []))[1]
 
+    def pdr(self, system: System, bad: Bad) -> Search:
+        """PDR on `system`; a proof whose certificate is confirmed is kept among the system's invariants."""
+        proof = pdr(system, bad, self.timeout_ms)
+        if proof.answer == "unreachable" and proof.certificate_checked and proof.invariant is not None:
+            self.invariants(system).append(proof.invariant)
+        return proof
+
     def of(self, system: System, initial: bool) -> Unrolling:
         key = (id(system), initial)  # the system is kept beside its unrolling, so its id is never reused
         if key not in self._made:
@@ -145,14 +152,11 @@ def deeper(base: Unrolling, real: System, bad: Bad, limits: Limits, *, start: in
 Probes = dict[tuple[str, ...], list[z3.ExprRef]]
 
 
-def concretize(
-    abstract: Unrolling, real: System | Unrolling, bad: Bad, steps: int, probes: Probes | None = None
-) -> Path | None:
+def concretize(abstract: Unrolling, run: Unrolling, bad: Bad, steps: int, probes: Probes | None = None) -> Path | None:
     """A run of the real system along an abstract counterexample: at each step, signals for which every abstracted
     definition takes the abstract run's value (one small query per step, remembered in `probes` for steps that
-    ask the same). None when some step has none. `real` may be an unrolling of the real system to reuse: the
-    run is pinned inside a push and pop."""
-    run = real if isinstance(real, Unrolling) else Unrolling(real, True, "r", abstract.timeout_ms)
+    ask the same). None when some step has none. `run` is the real system's shared unrolling: the run is pinned
+    inside a push and pop."""
     run.reach(steps)
     run.solver.push()
     try:
@@ -394,9 +398,7 @@ def decide(
             return witness
     if found.answer == "unreachable":
         return certified(found, system, bad, limits.timeout_ms, pool) if certify else found
-    proof = pdr(system, bad, limits.timeout_ms)
-    if proof.answer == "unreachable" and proof.certificate_checked:
-        pool.invariants(system).append(proof.invariant)
+    proof = pool.pdr(system, bad)
     if proof.answer == "unreachable":
         proof.k = found.k
         proof.notes.append(f"k-induction did not close up to k = {found.k}")
@@ -427,10 +429,8 @@ def certified(found: Search, system: System, bad: Bad, timeout_ms: int, pool: Un
         found.certificate, found.certificate_checked = z3.simplify(known).sexpr(), True
         found.notes.append("certificate: the declared ranges and the invariants proved before")
         return found
-    proof = pdr(system, bad, timeout_ms)
+    proof = pool.pdr(system, bad)
     found.certificate, found.certificate_checked = proof.certificate, proof.certificate_checked
-    if proof.answer == "unreachable" and proof.certificate_checked:
-        pool.invariants(system).append(proof.invariant)
     if proof.answer != "unreachable":
         found.notes.append(f"no certificate: {proof.reason or proof.answer}")
     return found
