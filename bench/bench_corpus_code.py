@@ -15,8 +15,8 @@ step where the mode, a variable or an output differs. It then prints, side by si
 and the ratios generated / hand-written. Target: both at most 1.3.
 
 The hand-written versions keep what the machine's behaviour needs and nothing else: no registers for the
-properties' prev() (the generated context carries them for the monitor), narrow integer types, each test made
-once a step. They are the yardstick, not a fast path: the toolkit never uses them.
+properties' prev() (neither does the generated step, where a register reads the context alone), narrow integer
+types, each test made once a step. They are the yardstick, not a fast path: the toolkit never uses them.
 """
 
 from __future__ import annotations
@@ -176,13 +176,6 @@ def driver(m: Machine, b: Bench, module: str) -> str:
     }
 
 
-def without_registers(source: str, module: str) -> str:
-    """The generated C with the monitor's `prev()` registers no longer written by the step (a measurement only:
-    the monitor then reads stale registers)."""
-    source = re.sub(r"\n\s*next\.prev\d+ = [^\n]*;", "", source)
-    return re.sub(r"\n\s*next\.first = false;", "", source)
-
-
 def definitions_once(source: str, module: str) -> str:
     """The generated C with every definition the dispatch and the updates call computed once, before the
     dispatch, into a file-scope variable they read instead (a measurement only)."""
@@ -198,7 +191,6 @@ def definitions_once(source: str, module: str) -> str:
 
 
 VARIANTS: dict[str, Callable[[str, str], str]] = {
-    "no prev() registers": without_registers,
     "definitions once": definitions_once,
 }
 

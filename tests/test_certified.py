@@ -26,17 +26,18 @@ DEFERRAL = (
 
 
 def test_a_pdr_certificate_reads_over_the_c_context() -> None:
-    """The engine's own constants (mode, first-step flag, registers) read as the context's members."""
+    """The engine's own constants read as the context's members (the mode) or the proof's ghost ones (a register
+    the code does not keep, since it reads the context alone, and with no kept register the first-step flag)."""
     stated, left = certify(MACHINE, LOWERING, [Proved("deferral", DEFERRAL)])
     assert left == []
     (x,) = stated
     assert x.certificate == (
-        "(((!(c.prev0 != 0)) || (!(c.mode >= 2))) && ((!(c.first != 0)) || (!(c.mode >= 1)))"
+        "(((!(g.prev0 != 0)) || (!(c.mode >= 2))) && ((!(g.first != 0)) || (!(c.mode >= 1)))"
         " && (!((c.need_age + ((-1) * c.waited)) <= (-1))) && (!(c.need_age <= (-1))))"
     )
     # prev(state in {IDLE, WAITING}): over the context before the step, or at the first step over that same one
     assert (
-        "\\at(cp->first, Pre) != 0) ? mlca_t_lprev0(\\at(*cp, Pre), i, p) : (\\at(cp->prev0, Pre) != 0)" in x.invariant
+        "\\at(gp->first, Pre) != 0) ? mlca_t_lprev0(\\at(*cp, Pre), i, p) : (\\at(gp->prev0, Pre) != 0)" in x.invariant
     )
     assert x.invariant.endswith("|| (c.need_age > p.T_MIN))")  # an implication, as a boolean term
 

@@ -393,8 +393,27 @@ def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) ->
         assert f"conveyor_first_{state}(\\old(*c), *i, *p), *c);" in contract
     assert "conveyor_first(" not in contract and "@ complete behaviors;\n  @ disjoint behaviors;" in contract
     kept = generate(load_spec(SPEC), tmp_path / "generated")
-    assert "    bool first;" in kept["c/mlca_t_fsm.h"]
     assert "const int fired = mlca_t_fired(c, i, p);" in _c_function(kept["c/mlca_t_fsm.c"], "void mlca_t_step(")
+
+
+def test_a_register_that_reads_the_context_alone_lives_in_the_monitor(tmp_path: Path) -> None:
+    """MLCA-T's prev(state in {IDLE, WAITING}) is the mode before the step: the step neither keeps nor writes it
+    (nor a first-step flag), and the monitor computes it from the context before the step, in C and in Python. A
+    register of an input (boolean_terms' prev(hot)) must be kept: the context holds it and the step writes it."""
+    files = generate(load_spec(SPEC), tmp_path / "mlca_t")
+    header, source = files["c/mlca_t_fsm.h"], files["c/mlca_t_fsm.c"]
+    context = header[header.index("typedef struct {\n    mlca_t_state_t mode;") : header.index("} mlca_t_ctx_t;")]
+    assert "prev0" not in context and "first" not in context
+    assert "prev0" not in _c_function(source, "void mlca_t_step(") and "prev0" not in _c_function(
+        source, "void mlca_t_init("
+    )
+    assert "const bool prev0 = mlca_t_reg0(before, i, p);" in _c_function(source, "void mlca_t_monitor(")
+    assert "prev0 = _reg0(before, i, p)  #" in files["python/mlca_t_fsm.py"]
+    kept = generate(load_spec(ROOT / "tests" / "fixtures" / "boolean_terms.toml"), tmp_path / "bt")
+    header, source = kept["c/bt_fsm.h"], kept["c/bt_fsm.c"]
+    assert "    bool prev0;" in header and "    bool first;" in header
+    assert "next.prev0 = bt_reg0(&next, i, p);" in _c_function(source, "void bt_step(")
+    assert "before->first ? bt_reg0(before, i, p) : before->prev0" in _c_function(source, "void bt_monitor(")
 
 
 @pytest.mark.slow

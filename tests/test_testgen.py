@@ -204,12 +204,14 @@ def test_mlca_t_runs_replay_exactly_on_the_data_explorer(mlca_t: tuple[Machine, 
     for case in suite.cases:  # type: ignore[attr-defined]
         if case.start is None:
             mode, variables = ex.initial()
-            registers: tuple[bruteforce_data.Value, ...] | None = None
+            registers: dict[int, object] | None = None
         else:
             from_context += 1
             mode = m.states[int(case.start["mode"])]
             variables = tuple(Fraction(case.start[v.name]) for v in m.variables)
-            registers = None if case.start["first"] else tuple(case.start[f"prev{k}"] for k in range(len(prevs)))
+            # a register the code does not keep is not in the context: it is its expression over the context
+            kept = {k: case.start[f"prev{k}"] for k in range(len(prevs)) if f"prev{k}" in case.start}
+            registers = None if case.start.get("first", False) else kept
         for sample, want in zip(case.inputs, case.expected, strict=True):
             inputs = _exact_inputs(sample)
             before = ex.point(mode, variables, inputs, params)
@@ -224,7 +226,7 @@ def test_mlca_t_runs_replay_exactly_on_the_data_explorer(mlca_t: tuple[Machine, 
             assert tuple(Fraction(x) for x in want.outputs) == tuple(Fraction(x) for x in outputs), case.name
             assert list(want.failing) == failing, case.name
             mode, variables = move.mode, move.variables
-            registers = tuple(bruteforce_data.ev(p.arg, post) for p in prevs)
+            registers = {k: bruteforce_data.ev(p.arg, post) for k, p in enumerate(prevs)}
     assert from_context >= 1  # the saturating counters are reached from a context
 
 
@@ -255,8 +257,8 @@ def test_every_run_the_search_finds_passes_its_decision_state_on_the_data_explor
     assert checked == set(m.states)
 
 
-def ev_prev(p: Prev, before: bruteforce_data.Point, registers: tuple[object, ...] | None, k: int) -> object:
-    return bruteforce_data.ev(p.arg, before) if registers is None else registers[k]
+def ev_prev(p: Prev, before: bruteforce_data.Point, registers: dict[int, object] | None, k: int) -> object:
+    return registers[k] if registers is not None and k in registers else bruteforce_data.ev(p.arg, before)
 
 
 def test_mlca_t_pairs_hold_in_exact_arithmetic(mlca_t: tuple[Machine, object]) -> None:
@@ -286,10 +288,12 @@ def _data_half(
         before = ex.point(
             m.states[int(s.before["mode"])], tuple(Fraction(s.before[v.name]) for v in m.variables), inputs, params
         )
-        previous = {
-            q: bruteforce_data.ev(q.arg, before) if s.before["first"] else s.before[f"prev{k}"]
-            for k, q in enumerate(prevs)
-        }
+        kept = (
+            None
+            if s.before.get("first", False)
+            else {k: s.before[f"prev{k}"] for k in range(len(prevs)) if f"prev{k}" in s.before}
+        )
+        previous = {q: ev_prev(q, before, kept, k) for k, q in enumerate(prevs)}
         mode = int(s.after["mode"])
         point = ex.point(
             m.states[mode] if mode < len(m.states) else "<none>",

@@ -61,8 +61,6 @@ void mlca_t_hand_init(mlca_t_ctx_t *c)
     c->mode = MLCA_T_IDLE;
     c->waited = 0;
     c->need_age = 0;
-    c->prev0 = false;
-    c->first = true;
 }
 
 void mlca_t_hand_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *in, const mlca_t_params_t *p, mlca_t_outputs_t *o)
@@ -108,7 +106,5 @@ void mlca_t_hand_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *in, const mlca_t_p
     c->mode = mode;
     c->waited = waited;
     c->need_age = !in->N ? 0 : ((c->need_age < TIMER_MAX) ? (c->need_age + 1) : TIMER_MAX);
-    c->prev0 = (mode == MLCA_T_IDLE) || (mode == MLCA_T_WAITING);
-    c->first = false;
     o->command = (mode == MLCA_T_MOVING_LEFT) ? 1 : ((mode == MLCA_T_MOVING_RIGHT) ? -1 : 0);
 }

@@ -148,10 +148,10 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @   logic mlca_t_params_t mlca_t_any_params;
   @ }
   @*/
-/* mlca_t_fresh(n): n's variables at their initial values, its registers at 0 and its first-step flag set, as
+/* mlca_t_fresh(n): n's variables at their initial values, as
  * mlca_t_init leaves a context and the step restarts one whose mode is not a state */
 /*@ predicate mlca_t_fresh(mlca_t_ctx_t n) =
-  @   n.waited == 0 && n.need_age == 0 && n.prev0 == 0 && n.first == 1;
+  @   n.waited == 0 && n.need_age == 0 && \true;
   @*/
 /* mlca_t_next(c, i, p, k, n): n is the context after transition k fires in c (-1: the restart, in the fallback
  * mode, of a context whose mode is not a state, whatever the inputs and params) */
@@ -160,8 +160,7 @@ static double mlca_t_div(double a, double b) { return a / b; }
   @   : (n.mode == (k == 1 ? MLCA_T_IDLE : k == 2 ? MLCA_T_MOVING_LEFT : k == 3 ? MLCA_T_MOVING_RIGHT : k == 4 ? MLCA_T_WAITING : k == 5 ? MLCA_T_MOVING_LEFT : k == 6 ? MLCA_T_MOVING_RIGHT : k == 7 ? MLCA_T_IDLE : k == 8 ? MLCA_T_IDLE : c.mode)
   @     && n.waited == (k == 1 ? 0 : k == 4 ? 1 : ((1000 < (c.waited + 1)) ? 1000 : (c.waited + 1)))
   @     && n.need_age == (((i.N != 0) ? ((1000 < (c.need_age + 1)) ? 1000 : (c.need_age + 1)) : 0))
-  @     && ((n.prev0 != 0) <==> mlca_t_lprev0(n, i, p))
-  @     && n.first == 0);
+  @     );
   @*/
 /* mlca_t_outputs_l(c, i, p, o): the outputs after the step */
 /*@ predicate mlca_t_outputs_l(mlca_t_ctx_t c, mlca_t_inputs_t i, mlca_t_params_t p, mlca_t_outputs_t o) =
@@ -268,8 +267,6 @@ static void mlca_t_restart(mlca_t_ctx_t *c)
     c->mode = MLCA_T_FALLBACK;
     c->waited = 0;
     c->need_age = 0;
-    c->prev0 = 0;
-    c->first = true;
 }
 
 /*@ requires \valid(c);
@@ -514,8 +511,6 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
             next.waited = (int32_t)(mlca_t_min_i((c->waited + INT64_C(1)), INT64_C(1000))); /* every step: min(waited + 1, 1000) */
         }
         next.need_age = (int32_t)((i->N ? mlca_t_min_i((c->need_age + INT64_C(1)), INT64_C(1000)) : INT64_C(0))); /* every step: if N then min(need_age + 1, 1000) else 0 */
-        next.prev0 = mlca_t_reg0(&next, i, p);
-        next.first = false;
     }
     /*@ assert stepped: mlca_t_next(*c, *i, *p, mlca_t_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
     mlca_t_outputs(&next, i, p, o);
@@ -530,7 +525,7 @@ void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const
     const mlca_t_params_t *p, const mlca_t_outputs_t *o, bool failing[MLCA_T_FAILING])
 {
     const mlca_t_ctx_t *c = after;
-    const bool prev0 = before->first ? mlca_t_reg0(before, i, p) : before->prev0;
+    const bool prev0 = mlca_t_reg0(before, i, p); /* it reads the context alone: not kept */
     (void)prev0; /* an invariant whose condition decides itself reads no register */
     (void)c;
     (void)before;

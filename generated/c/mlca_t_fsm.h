@@ -51,13 +51,11 @@ typedef struct {
     double BRAKE_MAX; /* largest braking of the vehicle in front, default 8.0, in [8.0, 12.0] (Sec. III-B 'R (Right Side Empty)', made concrete as RSS Definition 1 (a_max,brake; ad-rss-lib's default 8 m/s^2)) */
 } mlca_t_params_t;
 
-/* The context between two steps: the mode, the variables, and what prev() in a property reads. */
+/* The context between two steps: the mode and the variables. */
 typedef struct {
     mlca_t_state_t mode;
     int32_t waited; /* steps spent in WAITING since the need began, initially 0 (Fig. 1 caption ('waiting timeout')) */
     int32_t need_age; /* steps the need has held without a break (an observer for the deferral property, independent of the timer), initially 0 (Abstract ('defers non-safety-critical lane changes')) */
-    bool prev0; /* prev(state in {IDLE, WAITING}) after the last step */
-    bool first; /* no step taken yet */
 } mlca_t_ctx_t;
 
 /* The outputs of one step, over the context after it. */

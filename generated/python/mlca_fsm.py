@@ -64,7 +64,7 @@ DEFAULT_PARAMS = Params()
 
 @dataclass
 class Context:
-    """The context between two steps: the mode, the variables, and what prev() in a property reads."""
+    """The context between two steps: the mode."""
 
     mode: int = INITIAL
 

@@ -95,15 +95,13 @@ DEFAULT_PARAMS = Params()
 
 @dataclass
 class Context:
-    """The context between two steps: the mode, the variables, and what prev() in a property reads."""
+    """The context between two steps: the mode and the variables."""
 
     mode: int = INITIAL
     # steps spent in WAITING since the need began (Fig. 1 caption ('waiting timeout'))
     waited: int = 0
     # steps the need has held without a break (an observer for the deferral property, independent of the timer) (Abstract ('defers non-safety-critical lane changes'))
     need_age: int = 0
-    prev0: bool = field(default=False)
-    first: bool = True
 
 
 @dataclass(frozen=True)
@@ -224,8 +222,6 @@ def step(c: Context, i: Inputs, p: Params = DEFAULT_PARAMS) -> Outputs:
         else:
             nxt.waited = _min((c.waited + 1), 1000)
         nxt.need_age = (_min((c.need_age + 1), 1000) if i.N else 0)  # every step: if N then min(need_age + 1, 1000) else 0
-        nxt.prev0 = _reg0(nxt, i, p)
-        nxt.first = False
     out = _outputs(nxt, i, p)
     for name, value in vars(nxt).items():
         setattr(c, name, value)
@@ -235,7 +231,7 @@ def step(c: Context, i: Inputs, p: Params = DEFAULT_PARAMS) -> Outputs:
 def monitor(before: Context, after: Context, i: Inputs, p: Params, o: Outputs) -> list[str]:
     """The invariants that fail after the step from `before` to `after`."""
     c = after
-    prev0 = _reg0(before, i, p) if before.first else before.prev0
+    prev0 = _reg0(before, i, p)  # it reads the context alone: not kept
     failing = []
     if not ((c.mode == State.IDLE) or (c.mode == State.WAITING) or (c.mode == State.MOVING_LEFT) or (c.mode == State.MOVING_RIGHT)):  # state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1))
         failing.append("A1")

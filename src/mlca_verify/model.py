@@ -7,7 +7,7 @@ variables, definitions and outputs) and the machine's state.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Literal, TypeAlias
@@ -548,3 +548,30 @@ def own(name: str) -> str:
     its certificates print it. It starts with '!', which no spec name holds, so a spec symbol (`<name>@<step>`)
     can never be one of them."""
     return f"!{name}"
+
+
+def reads_context_only(expr: Expr, m: Machine) -> bool:
+    """True when the expression reads nothing but the mode, the variables and the params, directly or through
+    definitions and outputs: its value is then a function of the context and the params alone."""
+    context = {v.name for v in m.variables} | {p.name for p in m.params}
+    found = bodies(m)
+    todo, seen = [expr], set()
+    while todo:
+        for node in nodes(todo.pop()):
+            if isinstance(node, Prev):
+                return False
+            if isinstance(node, Var) and node.name not in context:
+                if node.name not in found:
+                    return False  # an input or a signal
+                if node.name not in seen:
+                    seen.add(node.name)
+                    todo.append(found[node.name])
+    return True
+
+
+def stored_registers(m: Machine, prevs: Sequence[Prev]) -> frozenset[int]:
+    """The prev() registers (by index in `prevs`) that a step must store: those whose expression reads an input, a
+    signal or an output. Any other one is its expression over the context before the step (at the first step as
+    after it, see `symbolic.System.build_step`), which the monitor computes from that context: the generated
+    step keeps no copy of it."""
+    return frozenset(k for k, p in enumerate(prevs) if not reads_context_only(p.arg, m))

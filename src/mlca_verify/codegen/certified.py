@@ -2,7 +2,9 @@
 
 For every invariant the engine proves for all params in range, with a certificate a separate query confirmed
 (an inductive invariant over the mode, the variables, the `prev()` registers and the first-step flag), this
-module writes the certificate and the invariant in ACSL. `conform` puts them on a wrapper of the step in a proof
+module writes the certificate and the invariant in ACSL. A register the code does not keep (it reads the context
+alone) and, without any kept one, the first-step flag are members of a ghost struct `g` that the proof's wrapper of
+the step updates as the engine updates its frame. `conform` puts them on a wrapper of the step in a proof
 file of its own (the certificates come from the solver, so they stay out of the checked-in code): WP then
 proves, from the step's own contract, that a step from a context satisfying the certificates keeps them and
 leaves every such invariant true, and that the initial context satisfies them.
@@ -21,7 +23,7 @@ from fractions import Fraction
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.ir import binary64
 from mlca_verify.logic.symbolic import input_only
-from mlca_verify.model import Expr, Input, Machine, Prev, Type, own, prevs_of
+from mlca_verify.model import Expr, Input, Machine, Prev, Type, own, prevs_of, stored_registers
 
 Sexpr = str | list["Sexpr"]
 COMPARES_BINARY64 = "it compares binary64 values, which z3 bit-blasts; the exhaustive checks cover it"
@@ -60,12 +62,26 @@ class Frame:
     terms: Mapping[str, tuple[str, Type]]  # symbol -> (ACSL term, type)
 
 
-def frame_of(m: Machine, prev_index: Mapping[Prev, int], inv_prevs: Sequence[Prev], types: Sequence[Type]) -> Frame:
-    terms: dict[str, tuple[str, Type]] = {own("mode@p0"): ("c.mode", "int"), own("first@p0"): ("c.first", "bool")}
+def holder(k: int | None, stored: frozenset[int], name: str, member: str = ".") -> str:
+    """Which struct holds register `k` (None: the first-step flag): the context `c` where the code keeps it
+    (see `model.stored_registers`), else the proof's ghost `g`, which the wrapper of the step keeps as the engine
+    keeps its frame."""
+    kept = bool(stored) if k is None else k in stored
+    return f"{'c' if kept else 'g'}{member}{name}"
+
+
+def frame_of(
+    m: Machine, prev_index: Mapping[Prev, int], inv_prevs: Sequence[Prev], types: Sequence[Type], stored: frozenset[int]
+) -> Frame:
+    terms: dict[str, tuple[str, Type]] = {
+        own("mode@p0"): ("c.mode", "int"),
+        own("first@p0"): (holder(None, stored, "first"), "bool"),
+    }
     for v in m.variables:
         terms[f"{v.name}@p0"] = (f"c.{v.name}", v.type)
     for j, prev in enumerate(inv_prevs):
-        terms[own(f"prev{j}@p0")] = (f"c.prev{prev_index[prev]}", types[j])
+        k = prev_index[prev]
+        terms[own(f"prev{j}@p0")] = (holder(k, stored, f"prev{k}"), types[j])
     for p in m.params:
         terms[f"param!{p.name}"] = (f"p.{p.name}", p.type)
     return Frame(terms)
@@ -181,17 +197,21 @@ class Certified:
     cite: str
 
 
-def invariant_text(lowering: AcslLowering, expr: Expr, prev_index: Mapping[Prev, int], prefix: str) -> str:
+def invariant_text(
+    lowering: AcslLowering, expr: Expr, prev_index: Mapping[Prev, int], prefix: str, stored: frozenset[int]
+) -> str:
     """The invariant over the context after the step; prev(e) is e over the context before it, or at the first
     step e over that same context (as the engine and the monitor read it)."""
     prevs: dict[Prev, str] = {}
+    first = holder(None, stored, "first", "p->")
     for prev in prevs_of(expr):
         k = prev_index[prev]
+        register = holder(k, stored, f"prev{k}", "p->")
         fresh = f"{prefix}_lprev{k}(\\at(*cp, Pre), i, p)"
         if lowering.type_of(prev.arg) == "bool":
-            prevs[prev] = f"((\\at(cp->first, Pre) != 0) ? {fresh} : (\\at(cp->prev{k}, Pre) != 0))"
+            prevs[prev] = f"((\\at({first}, Pre) != 0) ? {fresh} : (\\at({register}, Pre) != 0))"
         else:
-            prevs[prev] = f"(\\at(cp->first, Pre) ? {fresh} : \\at(cp->prev{k}, Pre))"
+            prevs[prev] = f"(\\at({first}, Pre) ? {fresh} : \\at({register}, Pre))"
     return lowering.go(expr, prevs)
 
 
@@ -240,7 +260,9 @@ def certify(
     m: Machine, lowering: AcslLowering, proved: Sequence[Proved]
 ) -> tuple[list[Certified], list[tuple[str, str]]]:
     """The invariants stated with their certificates, and those left out with the reason."""
-    prev_index = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
+    all_prevs = prevs_of(*(inv.expr for inv in m.invariants))
+    prev_index = {p: k for k, p in enumerate(all_prevs)}
+    stored = stored_registers(m, all_prevs)
     by_id = {inv.id: inv for inv in m.invariants}
     stated: list[Certified] = []
     left: list[tuple[str, str]] = []
@@ -250,13 +272,13 @@ def certify(
             left.append((inv.id, COMPARES_BINARY64))
             continue
         own = prevs_of(inv.expr)
-        frame = frame_of(m, prev_index, own, [lowering.type_of(p.arg) for p in own])
+        frame = frame_of(m, prev_index, own, [lowering.type_of(p.arg) for p in own], stored)
         try:
             certificate = Translate(frame).pred(parse(item.certificate))
         except (Untranslatable, IndexError) as err:
             left.append((inv.id, str(err) or "malformed certificate"))
             continue
-        text = invariant_text(lowering, inv.expr, prev_index, lowering.n.prefix)
+        text = invariant_text(lowering, inv.expr, prev_index, lowering.n.prefix, stored)
         stated.append(Certified(len(stated), inv.id, certificate, text, inv.cite))
     return stated, left
 

@@ -27,6 +27,7 @@ from mlca_verify.model import (
     prevs_of,
     show,
     stateful_definitions,
+    stored_registers,
     substitute,
 )
 from mlca_verify.model import Definition as SpecDefinition
@@ -192,6 +193,7 @@ class Register:
     ctype: str
     pytype: str
     code: Code
+    stored: bool = True  # kept in the context; else the monitor computes it from the context before the step
 
 
 @dataclass(frozen=True)
@@ -253,9 +255,24 @@ class MachineIR:
     hoisted: int = 0
 
     @property
+    def kept(self) -> tuple[Register, ...]:
+        """The registers the context keeps between steps (see `model.stored_registers`)."""
+        return tuple(r for r in self.registers if r.stored)
+
+    @property
+    def context_words(self) -> str:
+        """What the context holds, in words for the code's comments."""
+        parts = [
+            "the mode",
+            *(["the variables"] if self.variables else []),
+            *(["what prev() in a property reads"] if self.kept else []),
+        ]
+        return parts[0] if len(parts) == 1 else f"{', '.join(parts[:-1])} and {parts[-1]}"
+
+    @property
     def first_flag(self) -> bool:
-        """Whether the context keeps a first-step flag: only a register (what prev() reads) needs one."""
-        return bool(self.registers)
+        """Whether the context keeps a first-step flag: only a kept register (what prev() reads) needs one."""
+        return bool(self.kept)
 
 
 GENERATOR_NAME = "mlca-verify"
@@ -324,7 +341,8 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
             known += known_false(t.guard)
         return _case(state, index, tuple(branches), guards, hoisted)
 
-    direct = not m.variables and not prevs
+    stored = stored_registers(m, tuple(prevs))
+    direct = not m.variables and not stored
     hoisted = _hoisted(m, [tidy(t.guard, names.types) for t in m.transitions]) if direct else 0
     cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     if direct:
@@ -382,7 +400,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         hoisted=hoisted,
         direct=direct,
         updates=updates,
-        registers=tuple(_register(k, arg, c, stated) for k, arg in enumerate(register_args)),
+        registers=tuple(_register(k, arg, c, stated, k in stored) for k, arg in enumerate(register_args)),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
         guards=tuple(stated(t.guard, "bool") for t in m.transitions),
@@ -464,9 +482,9 @@ def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
     return f"in [{low}, {high}]"
 
 
-def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code]) -> Register:
+def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code], stored: bool) -> Register:
     kind = c.type_of(arg)
-    return Register(index, c_type(kind), PY_TYPES[kind], stated(arg, kind))
+    return Register(index, c_type(kind), PY_TYPES[kind], stated(arg, kind), stored)
 
 
 HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")

@@ -38,7 +38,7 @@ from mlca_verify.logic.replay64 import Binary64
 from mlca_verify.logic.replay64 import Value as Value64
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.symbolic import System, python_value, value_of
-from mlca_verify.model import Machine, Type, prevs_of
+from mlca_verify.model import Machine, Type, prevs_of, stored_registers
 from mlca_verify.tools import C_FLAGS, run
 
 SANITIZE = ("-fsanitize=address,undefined,float-divide-by-zero", "-fno-sanitize-recover=all", "-g", "-O1")
@@ -97,7 +97,7 @@ class Columns:
     def __init__(self, ir: MachineIR) -> None:
         self.ir = ir
         self.var_real = [v.ctype == "double" for v in ir.variables]
-        self.reg_real = [r.ctype == "double" for r in ir.registers]
+        self.reg_real = [r.ctype == "double" for r in ir.kept]
         self.out_real = [o.ctype == "double" for o in ir.outputs]
 
     def line(self, row: Row) -> str:
@@ -117,7 +117,7 @@ class Columns:
         failing = py.monitor(before, ctx, inputs, py.DEFAULT_PARAMS, out)
         values: list[object] = [int(ctx.mode)]
         values += [getattr(ctx, v.name) for v in ir.variables]
-        values += [getattr(ctx, f"prev{r.index}") for r in ir.registers]
+        values += [getattr(ctx, f"prev{r.index}") for r in ir.kept]
         if ir.first_flag:
             values.append(1 if ctx.first else 0)
         values += [getattr(out, o.name) for o in ir.outputs]
@@ -133,7 +133,7 @@ class Columns:
         for v in ir.variables:
             setattr(ctx, v.name, row[k])
             k += 1
-        for r in ir.registers:
+        for r in ir.kept:
             setattr(ctx, f"prev{r.index}", bool(row[k]) if r.pytype == "bool" else row[k])
             k += 1
         if ir.first_flag:
@@ -168,7 +168,7 @@ def _flags(ir: MachineIR) -> int:
 
 def context_width(ir: MachineIR) -> int:
     """The columns of a context: the mode, the variables, the registers and the first-step flag if kept."""
-    return 1 + len(ir.variables) + len(ir.registers) + _flags(ir)
+    return 1 + len(ir.variables) + len(ir.kept) + _flags(ir)
 
 
 def boundary_rows(ir: MachineIR) -> Iterator[Row]:
@@ -184,7 +184,7 @@ def boundary_rows(ir: MachineIR) -> Iterator[Row]:
         real = f.ctype == "double"
         for x in signal_values(_value(f.low.c, f.ctype), _value(f.high.c, f.ctype), real):  # type: ignore[union-attr]
             signal_sets.append([*mids[:k], x, *mids[k + 1 :]])
-    registers = [False if r.pytype == "bool" else 0 for r in ir.registers]
+    registers = [False if r.pytype == "bool" else 0 for r in ir.kept]
     for mode in range(len(ir.states)):
         for first in ((1,), (0,)) if ir.first_flag else ((),):
             for bits in itertools.product((1, 0), repeat=len(ir.inputs)):
@@ -247,7 +247,9 @@ class Semantics:
     def __init__(self, machine: Machine) -> None:
         machine = replace(machine, otherwise="stay")
         self.m = machine
-        self.system = System(machine, prevs_of(*(inv.expr for inv in machine.invariants)))
+        prevs = prevs_of(*(inv.expr for inv in machine.invariants))
+        self.system = System(machine, prevs)
+        self.stored = stored_registers(machine, prevs)  # the registers the code's context keeps
         self.pre, self.inputs, self.post = self.system.frame("s0"), self.system.inputs("s0"), self.system.frame("s1")
         self.link, self.terms = self.system.step(self.pre, self.inputs, self.post)
         self.solver = z3.Solver()
@@ -262,10 +264,10 @@ class Semantics:
         for v in m.variables:
             fixed.append(self.pre.variables[v.name] == _z3_value(row[k], v.type, None))
             k += 1
-        for reg in self.pre.registers.values():
+        for reg in (r for n, r in self.pre.registers.items() if n in self.stored):
             fixed.append(reg == (z3.BoolVal(bool(row[k])) if z3.is_bool(reg) else row[k]))
             k += 1
-        if self.pre.registers:  # else the code keeps no first-step flag: no register reads it
+        if self.stored:  # else the code keeps no first-step flag: no kept register reads it
             fixed.append(self.pre.first == bool(row[k]))
             k += 1
         for i in m.inputs:
@@ -360,14 +362,16 @@ def exhaustive(t: Subject, code: Code) -> CheckOutcome:
     detail = (
         f"{len(rows)} steps ({_boundary_words(t.ir)}): Python and C agree bit for bit, and both agree with z3's "
         f"semantics of the spec; {len(restarts)} steps from a mode that names no state: both restart in "
-        f"{t.ir.fallback}{' with the initial values' if t.ir.variables or t.ir.registers else ''}"
+        f"{t.ir.fallback}{' with the initial values' if t.ir.variables or t.ir.kept else ''}"
     )
     return CheckOutcome("exhaustive", True, detail, data={"steps": len(rows), "restarts": len(restarts)})
 
 
 def _boundary_words(ir: MachineIR) -> str:
     """What the boundary set holds, in the machine's own terms (no signal or variable where it has none)."""
-    parts = [f"every mode, boolean combination{' and first-step flag' if ir.first_flag else ''}"]
+    parts = [
+        "every mode, boolean combination and first-step flag" if ir.first_flag else "every mode and boolean combination"
+    ]
     if ir.signals:
         parts.append("each signal at its range ends, just outside, the middle, ±0, NaN, ±infinity and a subnormal")
     if ir.variables:
@@ -378,13 +382,13 @@ def _boundary_words(ir: MachineIR) -> str:
 def restart_rows(ir: MachineIR, rows: Sequence[Row]) -> list[Row]:
     """The boundary rows of the first mode after the first step, each with a mode that names no state instead (a
     context corrupted during a run)."""
-    flag = 1 + len(ir.variables) + len(ir.registers)
+    flag = 1 + len(ir.variables) + len(ir.kept)
     return [(len(ir.states), *row[1:]) for row in rows if row[0] == 0 and (not ir.first_flag or row[flag] == 0)]
 
 
 def restarted(ir: MachineIR) -> Row:
     """The mode, variables, registers and first-step flag a corrupted context restarts with, as the spec says."""
-    return (ir.states.index(ir.fallback), *_initial(ir), *[0] * len(ir.registers), *[1] * _flags(ir))
+    return (ir.states.index(ir.fallback), *_initial(ir), *[0] * len(ir.kept), *[1] * _flags(ir))
 
 
 def _languages_differ(py: ModuleType, columns: Columns, row: Row, c_after: Row) -> str | None:
@@ -441,7 +445,7 @@ def sequences(t: Subject, code: Code) -> CheckOutcome:
         rng = random.Random(seed)
         ctx = code.py.Context()
         row: Row = (int(ctx.mode), *[getattr(ctx, v.name) for v in t.ir.variables])
-        row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.registers), *[1] * _flags(t.ir))
+        row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.kept), *[1] * _flags(t.ir))
         rows: list[Row] = []
         py_rows: list[Row] = []
         inside = True  # every step of the run so far within the environment assumptions
@@ -737,7 +741,7 @@ def binary64_goals(ir: MachineIR) -> list[str]:
     names += [f"{p}_b64_{r.index}" for r in ir.rounded]
     names += [f"{p}_reg{r.index}" for r in ir.registers if r.ctype == "double"]
     clauses = [f"{name}: ensures" for name in names]
-    if any(f.ctype == "double" for f in ir.variables) or any(r.ctype == "double" for r in ir.registers):
+    if any(f.ctype == "double" for f in ir.variables) or any(r.ctype == "double" for r in ir.kept):
         clauses += [f"{p}_reset: ensures (reals)", f"{p}_init: ensures (reals)", f"{p}_step: ensures (real variables)"]
     if any(o.ctype == "double" for o in ir.outputs):
         clauses += [f"{p}_outputs: ensures (reals)", f"{p}_step: ensures (real outputs)"]

@@ -32,7 +32,7 @@ from mlca_verify.logic.symbolic import (
     python_value,
     value_of,
 )
-from mlca_verify.model import BinOp, Cmp, Expr, Machine, Not, Var, nodes, own, prevs_of, show
+from mlca_verify.model import BinOp, Cmp, Expr, Machine, Not, Var, nodes, own, prevs_of, show, stored_registers
 from mlca_verify.testgen.objectives import Decision, Objective, atoms, rule
 
 MARGIN = Fraction(1, 64)  # how far apart the two sides of a real comparison are kept at a concrete step
@@ -118,6 +118,7 @@ class Unrolling:
         self.abstracted = sorted(d for d in input_only(machine) if _bool_def(machine, d))
         self.system = System(machine, prevs, abstract=self.abstracted)
         self.concrete = System(machine, prevs)
+        self.stored = stored_registers(machine, prevs)
         self.def_exprs = {d: rule(machine, d) for d in self.abstracted}
         self.solver = z3.Solver()
         self.solver.set("timeout", timeout_ms)
@@ -279,15 +280,22 @@ def signal_bounds(system: System, i: StepInputs) -> list[z3.BoolRef]:
     return parts
 
 
-def frame_values(model: z3.ModelRef, f: Frame) -> dict[str, bool | int | float]:
-    """A frame as the generated code's context holds it: the mode, the variables, the registers, and `first`
-    where a register needs it (see `MachineIR.first_flag`)."""
+def frame_values(model: z3.ModelRef, f: Frame, stored: frozenset[int]) -> dict[str, bool | int | float]:
+    """A frame as the generated code's context holds it: the mode, the variables, the registers it keeps
+    (`stored`, see `model.stored_registers`), and `first` where one of them needs it (`MachineIR.first_flag`)."""
     values: dict[str, bool | int | float] = {"mode": value_at(model, f.mode)}
     values.update({n: value_at(model, t) for n, t in f.variables.items()})
-    values.update({f"prev{k}": value_at(model, t) for k, t in f.registers.items()})
-    if f.registers:
+    values.update({f"prev{k}": value_at(model, t) for k, t in f.registers.items() if k in stored})
+    if stored:
         values["first"] = value_at(model, f.first)
     return values
+
+
+def unkept(s: System, f: Frame, i: StepInputs, stored: frozenset[int]) -> list[z3.BoolRef]:
+    """Each register the code does not keep equals its expression over the frame it belongs to: the code's
+    monitor computes it from that context (a frame a run reaches satisfies this; one a search makes up must)."""
+    here = s.valuation(f, i)
+    return [f.registers[k] == s.ev(p.arg, here) for k, p in enumerate(s.prevs) if k not in stored]
 
 
 def _bool_def(machine: Machine, name: str) -> bool:
@@ -364,6 +372,7 @@ class Search:
         solver = z3.Solver()
         solver.set("timeout", 20_000)
         solver.add(link, s.well_formed(pre), z3.Not(pre.first), s.assumptions(pre, i), *self.in_range(pre))
+        solver.add(*unkept(s, pre, i, self.unrolling.stored))
         solver.add(*signal_bounds(s, i))
         solver.add(self.context(o.decision, p, s), cond == value, z3.Xor(high, low), extra(conditions, outcome))
         solver.add(*margins(s, self.read_by(o.decision), p.pre))
@@ -372,7 +381,8 @@ class Search:
         model = solver.model()
         values = [bool(z3.is_true(model.eval(c, model_completion=True))) for c in conditions]
         result = bool(z3.is_true(model.eval(outcome, model_completion=True)))
-        return Found([self.unrolling.sample_of(model, i)], values, result, start=frame_values(model, pre))
+        start = frame_values(model, pre, self.unrolling.stored)
+        return Found([self.unrolling.sample_of(model, i)], values, result, start=start)
 
     def read_by(self, d: Decision) -> list[Expr]:
         """The decision and every definition it reads, directly or through others."""
@@ -436,6 +446,7 @@ class Search:
         after = Valuation(post.mode, post.variables, i, s.param_values(post), previous)
         # the context after may hold a mode that names no state (the monitor's A1 and `state_valid` see it)
         sane = [s.well_formed(pre), post.mode >= 0, post.mode <= len(s.m.states), z3.Not(post.first)]
+        sane += unkept(s, pre, i, self.unrolling.stored)
         sane += signal_bounds(s, i)
         sane += [s.param_ranges(s.param_values(post)), s.assumptions(pre, i), *self.in_range(pre), *self.in_range(post)]
         return pre, i, post, Point(before, after, 0), z3.And(*sane)
@@ -455,7 +466,8 @@ class Search:
         values = [bool(z3.is_true(model.eval(c, model_completion=True))) for c in conditions]
         outputs = {n: value_at(model, x) for n, x in s.outputs_at(p.post).items()}
         failing = tuple(v.id for v in self.unrolling.m.invariants if not value_at(model, s.ev(v.expr, p.post)))
-        before, after = frame_values(model, pre), frame_values(model, post)
+        stored = self.unrolling.stored
+        before, after = frame_values(model, pre, stored), frame_values(model, post, stored)
         shot = Snapshot(before, after, self.unrolling.sample_of(model, i), outputs, failing)
         return Found([], values, bool(z3.is_true(model.eval(outcome, model_completion=True))), shot)
 

@@ -12,10 +12,10 @@ from fractions import Fraction
 import z3
 
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, value_of
-from mlca_verify.model import Machine, prevs_of
+from mlca_verify.model import Machine, prevs_of, stored_registers
 from mlca_verify.testgen import DEPTH
 from mlca_verify.testgen.objectives import objectives
-from mlca_verify.testgen.search import Found, Pair, Sample, Search, Snapshot, Unrolling, frame_values, value_at
+from mlca_verify.testgen.search import Found, Pair, Sample, Search, Snapshot, Unrolling, frame_values, unkept, value_at
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,7 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
     the spec's step relation at a time, with the context before it and its inputs fixed."""
     prevs = prevs_of(*(i.expr for i in machine.invariants), *(o.expr for o in machine.outputs))
     system = System(machine, prevs)
+    stored = stored_registers(machine, prevs)
     pre, i, post = system.frame("r0"), system.inputs("r0"), system.frame("r1")
     link, terms = system.step(pre, i, post)
     solver = z3.Solver()
@@ -84,17 +85,18 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
     initial = z3.Solver()
     initial.add(system.init(pre))
     initial.check()
-    first = frame_values(initial.model(), pre)
+    first = frame_values(initial.model(), pre, stored)
     answers = []
     for start, run in runs:
         context = first if start is None else dict(start)
         steps = []
         for sample in run:
-            if solver.check(_start(system, pre, context), _fix(system, i, sample)) != z3.sat:
+            held = _start(system, pre, context), *unkept(system, pre, i, stored), _fix(system, i, sample)
+            if solver.check(*held) != z3.sat:
                 raise AssertionError(f"the spec has no step from {context} under {sample}")
             model = solver.model()
             steps.append(_expected(system, model, post, terms))
-            context = frame_values(model, post)
+            context = frame_values(model, post, stored)
         answers.append(steps)
     return answers
 
@@ -102,7 +104,7 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
 def _start(system: System, f: Frame, start: dict[str, bool | int | float]) -> z3.BoolRef:
     parts = [f.mode == int(start["mode"]), f.first == bool(start.get("first", False))]  # none: after a step
     parts += [f.variables[v.name] == value_of(Fraction(start[v.name]), v.type) for v in system.m.variables]
-    parts += [reg == start[f"prev{k}"] for k, reg in f.registers.items()]
+    parts += [reg == start[f"prev{k}"] for k, reg in f.registers.items() if f"prev{k}" in start]
     return z3.And(*parts)
 
 

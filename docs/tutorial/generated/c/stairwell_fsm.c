@@ -86,10 +86,10 @@ static int64_t stairwell_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
   @   logic stairwell_params_t stairwell_any_params;
   @ }
   @*/
-/* stairwell_fresh(n): n's variables at their initial values, its registers at 0 and its first-step flag set, as
+/* stairwell_fresh(n): n's variables at their initial values, as
  * stairwell_init leaves a context and the step restarts one whose mode is not a state */
 /*@ predicate stairwell_fresh(stairwell_ctx_t n) =
-  @   n.t == 0 && n.prev0 == 0 && n.prev1 == 0 && n.first == 1;
+  @   n.t == 0 && \true;
   @*/
 /* stairwell_next(c, i, p, k, n): n is the context after transition k fires in c (-1: the restart, in the fallback
  * mode, of a context whose mode is not a state, whatever the inputs and params) */
@@ -97,9 +97,7 @@ static int64_t stairwell_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
   @   k < 0 ? (n.mode == STAIRWELL_FALLBACK && stairwell_fresh(n))
   @   : (n.mode == (k == 1 ? STAIRWELL_ON : k == 2 ? STAIRWELL_ON : k == 3 ? STAIRWELL_WARN : k == 4 ? STAIRWELL_OFF : c.mode)
   @     && n.t == (k == 1 ? 0 : k == 2 ? 0 : k == 3 ? 0 : ((120 < (c.t + 1)) ? 120 : (c.t + 1)))
-  @     && ((n.prev0 != 0) <==> stairwell_lprev0(n, i, p))
-  @     && ((n.prev1 != 0) <==> stairwell_lprev1(n, i, p))
-  @     && n.first == 0);
+  @     );
   @*/
 /* stairwell_outputs_l(c, i, p, o): the outputs after the step */
 /*@ predicate stairwell_outputs_l(stairwell_ctx_t c, stairwell_inputs_t i, stairwell_params_t p, stairwell_outputs_t o) =
@@ -164,9 +162,6 @@ static void stairwell_restart(stairwell_ctx_t *c)
 {
     c->mode = STAIRWELL_FALLBACK;
     c->t = 0;
-    c->prev0 = 0;
-    c->prev1 = 0;
-    c->first = true;
 }
 
 /*@ requires \valid(c);
@@ -334,9 +329,6 @@ void stairwell_step(stairwell_ctx_t *c, const stairwell_inputs_t *i, const stair
         } else {
             next.t = (int32_t)(stairwell_min_i((c->t + INT64_C(1)), INT64_C(120))); /* every step: min(t + 1, 120) */
         }
-        next.prev0 = stairwell_reg0(&next, i, p);
-        next.prev1 = stairwell_reg1(&next, i, p);
-        next.first = false;
     }
     /*@ assert stepped: stairwell_next(*c, *i, *p, stairwell_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
     stairwell_outputs(&next, i, p, o);
@@ -351,9 +343,9 @@ void stairwell_monitor(const stairwell_ctx_t *before, const stairwell_ctx_t *aft
     const stairwell_params_t *p, const stairwell_outputs_t *o, bool failing[STAIRWELL_FAILING])
 {
     const stairwell_ctx_t *c = after;
-    const bool prev0 = before->first ? stairwell_reg0(before, i, p) : before->prev0;
+    const bool prev0 = stairwell_reg0(before, i, p); /* it reads the context alone: not kept */
     (void)prev0; /* an invariant whose condition decides itself reads no register */
-    const bool prev1 = before->first ? stairwell_reg1(before, i, p) : before->prev1;
+    const bool prev1 = stairwell_reg1(before, i, p); /* it reads the context alone: not kept */
     (void)prev1; /* an invariant whose condition decides itself reads no register */
     (void)c;
     (void)before;

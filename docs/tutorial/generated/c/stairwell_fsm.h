@@ -36,13 +36,10 @@ typedef struct {
     int32_t T_WARN; /* steps of dimmed light before it goes off, default 2, in [1, 6] (tutorial) */
 } stairwell_params_t;
 
-/* The context between two steps: the mode, the variables, and what prev() in a property reads. */
+/* The context between two steps: the mode and the variables. */
 typedef struct {
     stairwell_state_t mode;
     int32_t t; /* steps since the light came on or was last pressed, initially 0 (tutorial) */
-    bool prev0; /* prev(state == WARN) after the last step */
-    bool prev1; /* prev(not state == OFF) after the last step */
-    bool first; /* no step taken yet */
 } stairwell_ctx_t;
 
 /* The outputs of one step, over the context after it. */

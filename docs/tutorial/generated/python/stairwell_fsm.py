@@ -62,14 +62,11 @@ DEFAULT_PARAMS = Params()
 
 @dataclass
 class Context:
-    """The context between two steps: the mode, the variables, and what prev() in a property reads."""
+    """The context between two steps: the mode and the variables."""
 
     mode: int = INITIAL
     # steps since the light came on or was last pressed (tutorial)
     t: int = 0
-    prev0: bool = field(default=False)
-    prev1: bool = field(default=False)
-    first: bool = True
 
 
 @dataclass(frozen=True)
@@ -144,9 +141,6 @@ def step(c: Context, i: Inputs, p: Params = DEFAULT_PARAMS) -> Outputs:
             nxt.t = 0
         else:
             nxt.t = _min((c.t + 1), 120)
-        nxt.prev0 = _reg0(nxt, i, p)
-        nxt.prev1 = _reg1(nxt, i, p)
-        nxt.first = False
     out = _outputs(nxt, i, p)
     for name, value in vars(nxt).items():
         setattr(c, name, value)
@@ -156,8 +150,8 @@ def step(c: Context, i: Inputs, p: Params = DEFAULT_PARAMS) -> Outputs:
 def monitor(before: Context, after: Context, i: Inputs, p: Params, o: Outputs) -> list[str]:
     """The invariants that fail after the step from `before` to `after`."""
     c = after
-    prev0 = _reg0(before, i, p) if before.first else before.prev0
-    prev1 = _reg1(before, i, p) if before.first else before.prev1
+    prev0 = _reg0(before, i, p)  # it reads the context alone: not kept
+    prev1 = _reg1(before, i, p)  # it reads the context alone: not kept
     failing = []
     if not ((not i.press) or (o.lamp == 2)):  # press -> lamp == 2 (tutorial)
         failing.append("full-light-after-a-press")
