@@ -18,6 +18,7 @@ import pytest
 
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
+from mlca_verify.codegen.widths import narrow, output_bounds
 from mlca_verify.conform import conform
 from mlca_verify.conform.c_tools import WP
 from mlca_verify.conform.generated_code import WP_FLAGS
@@ -474,3 +475,27 @@ def test_a_branch_the_step_leaves_out_is_still_reported_as_fired(tmp_path: Path)
             assert answer == c.advance(c_ctx, a, b), (mode, a, b)
             fired.add(((answer[0] >> FIRED_SHIFT) & FIRED_MASK) - 1)
     assert fired == {0, 1, 2, 3, 4}  # none, go, hold, back-on-a and back
+
+
+def test_int_arithmetic_is_32_bits_wide_where_the_ranges_show_it_fits(tmp_path: Path) -> None:
+    """MLCA-T's timers (0..1000) and T_MIN (1..100): its ints compute in int32_t, with plain literals, and its
+    command, -1..1 without a declared range, is an int8_t. A sum that may leave 32 bits, or an int read without a
+    32-bit range (here an int signal, whose invalid samples reach the code), keeps the whole machine in int64_t."""
+    spec = load_spec(SPEC)
+    assert narrow(spec.machine) and output_bounds(spec.machine) == {"command": (-1, 1)}
+    files = generate(spec, tmp_path / "t")
+    source, header = files["c/mlca_t_fsm.c"], files["c/mlca_t_fsm.h"]
+    assert "static int32_t mlca_t_min_i(int32_t r, int32_t a)" in source and "INT64_C" not in source
+    assert "next.waited = (int32_t)(mlca_t_min_i((c->waited + 1), 1000));" in source
+    assert "    int8_t command;" in header
+    text = (ROOT / "tests" / "fixtures" / "boolean_terms.toml").read_text(encoding="utf-8")
+    wide = text.replace('range = [0, 20], every = "if hot then min(n + 1, 20) else 0"',
+                        'range = [0, 2147483647], every = "if hot then min(n + 1, 2147483647) else 0"')  # fmt: skip
+    assert wide != text
+    (tmp_path / "wide.toml").write_text(wide, encoding="utf-8")
+    machine = load_spec(tmp_path / "wide.toml", compare=False).machine
+    assert not narrow(machine)  # n + 1 reaches 2**31
+    source = generate(load_spec(tmp_path / "wide.toml", compare=False), tmp_path / "w")["c/bt_fsm.c"]
+    assert "static int64_t bt_min_i(int64_t r, int64_t a)" in source and "INT64_C(1)" in source
+    washer = load_spec(ROOT / "tests" / "machines" / "washer_10hz.toml").machine
+    assert not narrow(washer)  # FILL_LEVEL - level, over an int signal

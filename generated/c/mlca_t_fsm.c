@@ -20,7 +20,7 @@ static double mlca_t_max_d(double r, double a) { return (a > r) ? a : r; }
 /*@ assigns \nothing;
   @ ensures \result == ((a < r) ? a : r);
   @*/
-static int64_t mlca_t_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
+static int32_t mlca_t_min_i(int32_t r, int32_t a) { return (a < r) ? a : r; }
 /*@ assigns \nothing; */
 static double mlca_t_div(double a, double b) { return a / b; }
 
@@ -254,7 +254,7 @@ static void mlca_t_outputs(const mlca_t_ctx_t *c, const mlca_t_inputs_t *i, cons
     (void)c;
     (void)i;
     (void)p;
-    o->command = ((c->mode == MLCA_T_MOVING_LEFT) ? INT64_C(1) : ((c->mode == MLCA_T_MOVING_RIGHT) ? INT64_C(-1) : INT64_C(0))); /* if state == MOVING_LEFT then 1 else if state == MOVING_RIGHT then -1 else 0 (Alg. 1, l.11-14 (MOVING_LEFT, MOVING_RIGHT)) */
+    o->command = (int8_t)(((c->mode == MLCA_T_MOVING_LEFT) ? 1 : ((c->mode == MLCA_T_MOVING_RIGHT) ? -1 : 0))); /* if state == MOVING_LEFT then 1 else if state == MOVING_RIGHT then -1 else 0 (Alg. 1, l.11-14 (MOVING_LEFT, MOVING_RIGHT)) */
 }
 
 /*@ requires \valid(c);
@@ -504,13 +504,13 @@ void mlca_t_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *i, const mlca_t_params_
             next.mode = c->mode;
         }
         if (fired == 1) { /* waited = 0 */
-            next.waited = (int32_t)(INT64_C(0));
+            next.waited = (int32_t)(0);
         } else if (fired == 4) { /* waited = 1 */
-            next.waited = (int32_t)(INT64_C(1));
+            next.waited = (int32_t)(1);
         } else {
-            next.waited = (int32_t)(mlca_t_min_i((c->waited + INT64_C(1)), INT64_C(1000))); /* every step: min(waited + 1, 1000) */
+            next.waited = (int32_t)(mlca_t_min_i((c->waited + 1), 1000)); /* every step: min(waited + 1, 1000) */
         }
-        next.need_age = (int32_t)((i->N ? mlca_t_min_i((c->need_age + INT64_C(1)), INT64_C(1000)) : INT64_C(0))); /* every step: if N then min(need_age + 1, 1000) else 0 */
+        next.need_age = (int32_t)((i->N ? mlca_t_min_i((c->need_age + 1), 1000) : 0)); /* every step: if N then min(need_age + 1, 1000) else 0 */
     }
     /*@ assert stepped: mlca_t_next(*c, *i, *p, mlca_t_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
     mlca_t_outputs(&next, i, p, o);
@@ -539,7 +539,7 @@ void mlca_t_monitor(const mlca_t_ctx_t *before, const mlca_t_ctx_t *after, const
     const bool holds3 = ((!(c->mode == MLCA_T_MOVING_RIGHT)) || (i->N && mlca_t_def_R(c, i, p))); /* A4: state == MOVING_RIGHT -> N and R (Alg. 1, l.32 (Assert 4)) */
     const bool holds4 = ((!((prev0 && ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))) && (!i->U))) || (c->need_age > p->T_MIN)); /* deferral: prev(state in {IDLE, WAITING}) and state in {MOVING_LEFT, MOVING_RIGHT} and not U -> need_age > T_MIN (Abstract ('defers non-safety-critical lane changes'); Fig. 1 caption ('waiting timeout')) */
     const bool holds5 = ((!(((prev0 && i->N) && i->U) && (mlca_t_def_L(c, i, p) || mlca_t_def_R(c, i, p)))) || ((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT))); /* urgent-first-safe-step: prev(state in {IDLE, WAITING}) and N and U and (L or R) -> state in {MOVING_LEFT, MOVING_RIGHT} (Sec. III-B 'W (Can Wait)': a critical lane change is not deferred) */
-    const bool holds6 = (((!(o->command != INT64_C(0))) == (!((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT)))) && ((!(o->command == INT64_C(1))) == (!(c->mode == MLCA_T_MOVING_LEFT)))); /* command-only-when-moving: (command != 0 <-> state in {MOVING_LEFT, MOVING_RIGHT}) and (command == 1 <-> state == MOVING_LEFT) (Alg. 1, l.11-14) */
+    const bool holds6 = (((!(o->command != 0)) == (!((c->mode == MLCA_T_MOVING_LEFT) || (c->mode == MLCA_T_MOVING_RIGHT)))) && ((!(o->command == 1)) == (!(c->mode == MLCA_T_MOVING_LEFT)))); /* command-only-when-moving: (command != 0 <-> state in {MOVING_LEFT, MOVING_RIGHT}) and (command == 1 <-> state == MOVING_LEFT) (Alg. 1, l.11-14) */
     const bool holds7 = ((!(!((((((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->gap_lead_left) && (i->gap_lead_left <= 1000.0))) && ((0.0 <= i->gap_follow_left) && (i->gap_follow_left <= 1000.0))) && ((0.0 <= i->v_follow_left) && (i->v_follow_left <= 70.0))) && ((0.0 <= i->v_lead_left) && (i->v_lead_left <= 70.0))))) || ((!mlca_t_def_L(c, i, p)) && (!(c->mode == MLCA_T_MOVING_LEFT)))); /* fail-safe-left: not (valid(v) and valid(gap_lead_left) and valid(gap_follow_left) and valid(v_follow_left) and valid(v_lead_left)) -> not L and not state == MOVING_LEFT (Sec. III-B 'L (Left Side Empty)': an unknown gap is not a safe gap) */
     const bool holds8 = ((!(!((((((0.0 <= i->v) && (i->v <= 70.0)) && ((0.0 <= i->gap_lead_right) && (i->gap_lead_right <= 1000.0))) && ((0.0 <= i->gap_follow_right) && (i->gap_follow_right <= 1000.0))) && ((0.0 <= i->v_follow_right) && (i->v_follow_right <= 70.0))) && ((0.0 <= i->v_lead_right) && (i->v_lead_right <= 70.0))))) || ((!mlca_t_def_R(c, i, p)) && (!(c->mode == MLCA_T_MOVING_RIGHT)))); /* fail-safe-right: not (valid(v) and valid(gap_lead_right) and valid(gap_follow_right) and valid(v_follow_right) and valid(v_lead_right)) -> not R and not state == MOVING_RIGHT (Sec. III-B 'R (Right Side Empty)': an unknown gap is not a safe gap) */
     failing[0] = !holds0;

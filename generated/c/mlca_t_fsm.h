@@ -60,7 +60,7 @@ typedef struct {
 
 /* The outputs of one step, over the context after it. */
 typedef struct {
-    int64_t command; /* the lane change commanded: +1 left, -1 right, 0 none (SUMO's sign convention) (Alg. 1, l.11-14 (MOVING_LEFT, MOVING_RIGHT)) */
+    int8_t command; /* the lane change commanded: +1 left, -1 right, 0 none (SUMO's sign convention) (Alg. 1, l.11-14 (MOVING_LEFT, MOVING_RIGHT)) */
 } mlca_t_outputs_t;
 
 extern const mlca_t_params_t mlca_t_DEFAULT_PARAMS;

@@ -128,9 +128,19 @@ def substitute(expr: Expr, by: Mapping[str, Expr]) -> Expr:
     """`expr` with each name in `by` replaced by its expression; the parts that do not change are shared."""
     if isinstance(expr, Var):
         return by.get(expr.name, expr)
-    old = children(expr)
-    new = tuple(substitute(c, by) for c in old)
-    if all(a is b for a, b in zip(new, old, strict=True)):
+    return with_children(expr, tuple(substitute(c, by) for c in children(expr)))
+
+
+def without_prev(expr: Expr) -> Expr:
+    """`expr` with each prev(e) read as e (the values it can take are those e can take)."""
+    if isinstance(expr, Prev):
+        return without_prev(expr.arg)
+    return with_children(expr, tuple(without_prev(c) for c in children(expr)))
+
+
+def with_children(expr: Expr, new: tuple[Expr, ...]) -> Expr:
+    """`expr` with its children (see `children`) replaced by `new`; `expr` itself where none changed."""
+    if all(a is b for a, b in zip(new, children(expr), strict=True)):
         return expr
     if isinstance(expr, Not | Neg | Prev):
         return replace(expr, arg=new[0])

@@ -11,9 +11,11 @@ from fractions import Fraction
 
 from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, output_type, real_literal
+from mlca_verify.codegen.rounded import Part as RoundedPart
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.codegen.tidy import known_false, tidy, without_known
+from mlca_verify.codegen.widths import narrow, output_bounds
 from mlca_verify.logic.kept import kept_ranges
 from mlca_verify.model import (
     Const,
@@ -253,6 +255,7 @@ class MachineIR:
     # how many leading `from = "*"` transitions to the fallback mode a direct step tests once, before telling the
     # modes apart: a context whose mode is not a state restarts in the fallback mode too, so the order is free
     hoisted: int = 0
+    ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
 
     @property
     def kept(self) -> tuple[Register, ...]:
@@ -287,7 +290,7 @@ def _literal(v: Fraction, kind: Type) -> Code:
 
 def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> MachineIR:
     macro = module.upper()
-    names = names_of(m, module, macro)
+    names = replace(names_of(m, module, macro), ints="int32_t" if narrow(m) else "int64_t")
     c, py = Lowering(names, "c"), Lowering(names, "py")
     logic = AcslLowering(names, context_free(m))
     prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
@@ -327,6 +330,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
 
     shapes, uses = shared_shapes(m)
     keeps = kept_ranges(m)
+    bounds = output_bounds(m)  # declared, or what the ranges give (see `widths`)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
 
     def chain(state: str, index: int) -> Case:
@@ -370,6 +374,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         spec_path=spec_path,
         spec_sha256=sha,
         generator=generator,
+        ints=names.ints,
         initial=m.initial,
         fallback=m.fallback_state,
         states=m.states,
@@ -387,7 +392,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         outputs=tuple(
             Definition(
                 o.name,
-                output_type(o.type, o.range),
+                output_type(o.type, bounds.get(o.name)),
                 PY_TYPES[o.type],
                 stated(o.expr, o.type),
                 o.doc,
@@ -404,10 +409,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
         guards=tuple(stated(t.guard, "bool") for t in m.transitions),
-        rounded=tuple(
-            Rounded(p.index, c_type(p.kind), Code(c.as_type(p.expr, p.kind, None), "", show(p.expr)), p.free, p.users)
-            for p in parts
-        ),
+        rounded=tuple(_rounded(p, c) for p in parts),
     )
     written = tuple(
         replace(case, branches=(*case.branches[: case.hoisted], *case.code), written=case.hoisted + len(case.code),
@@ -482,9 +484,14 @@ def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
     return f"in [{low}, {high}]"
 
 
+def _rounded(part: RoundedPart, c: Lowering) -> Rounded:
+    code = Code(c.as_type(part.expr, part.kind, None), "", show(part.expr))
+    return Rounded(part.index, c_type(part.kind, None, c.n.ints), code, part.free, part.users)
+
+
 def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code], stored: bool) -> Register:
     kind = c.type_of(arg)
-    return Register(index, c_type(kind), PY_TYPES[kind], stated(arg, kind), stored)
+    return Register(index, c_type(kind, None, c.n.ints), PY_TYPES[kind], stated(arg, kind), stored)
 
 
 HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
@@ -519,7 +526,8 @@ def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowerin
             show(d.expr),
             f"{c.n.prefix}_lshape{use.shape}({args_l}, p)",
         )
-        return Definition(d.name, c_type(d.type), PY_TYPES[d.type], call, d.doc, d.cite, free=d.name in logic.free)
+        kind = c_type(d.type, None, c.n.ints)
+        return Definition(d.name, kind, PY_TYPES[d.type], call, d.doc, d.cite, free=d.name in logic.free)
     exact = not binary64(d.expr, c.n.types)
     body = Code(
         c.as_type(d.expr, d.type, None),
@@ -529,7 +537,8 @@ def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowerin
     )
     if d.type == "bool" and d.signals:
         body = _gated(body, _validity(d.signals, c, py, logic), d.if_invalid)
-    return Definition(d.name, c_type(d.type), PY_TYPES[d.type], body, d.doc, d.cite, exact, d.name in logic.free)
+    kind = c_type(d.type, None, c.n.ints)
+    return Definition(d.name, kind, PY_TYPES[d.type], body, d.doc, d.cite, exact, d.name in logic.free)
 
 
 def binary64(e: Expr, types: Mapping[str, Type]) -> bool:
@@ -562,4 +571,4 @@ def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
     args = tuple((a, c_type(kind, bounds), PY_TYPES[kind]) for a, kind, bounds in sh.args)
     users = tuple(sorted(name for name, use in uses.items() if use.shape == sh.index))
     exact = not binary64(sh.expr, types)
-    return SharedShape(sh.index, c_type(sh.kind), PY_TYPES[sh.kind], args, code, users, exact)
+    return SharedShape(sh.index, c_type(sh.kind, None, names.ints), PY_TYPES[sh.kind], args, code, users, exact)

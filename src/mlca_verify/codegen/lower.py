@@ -37,14 +37,16 @@ from mlca_verify.model import (
 INT_LIMIT = 2**31 - 1
 
 
-def c_type(kind: Type, bounds: tuple[Fraction, Fraction] | None = None) -> str:
+def c_type(kind: Type, bounds: tuple[Fraction, Fraction] | None = None, ints: str = "int64_t") -> str:
+    """A value's C type: an int field whose range fits 32 bits is an `int32_t`, any other int the type the code's
+    arithmetic computes in (`ints`, see `widths`)."""
     if kind == "bool":
         return "bool"
     if kind == "real":
         return "double"
     if bounds is not None and bounds[0] >= -INT_LIMIT - 1 and bounds[1] <= INT_LIMIT:
         return "int32_t"
-    return "int64_t"
+    return ints
 
 
 def real_literal(value: Fraction) -> str:
@@ -76,6 +78,7 @@ class Names:
     prefix: str  # C prefix of the machine's functions and types
     macro: str
     ranges: Mapping[str, tuple[Fraction, Fraction]]  # of each signal
+    ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
 
 
 def names_of(m: Machine, prefix: str, macro: str) -> Names:
@@ -196,6 +199,8 @@ class Lowering:
     def widened(self, e: Expr, text: str) -> str:
         """A bare read of an int field (a variable, a param, a signal, a register: stored as int32_t where its
         range allows) as an int64_t, the type every int expression computes in."""
+        if self.n.ints == "int32_t":  # every int field is an int32_t too
+            return text
         return f"((int64_t){text})" if isinstance(e, (Var, Prev)) else text
 
     def call(self, e: Call, prevs: Mapping[Prev, str] | None) -> str:
@@ -230,7 +235,9 @@ class Lowering:
         value = -e.value if negative else e.value
         if e.real or value.denominator != 1:
             return real_literal(value)
-        return f"INT64_C({int(value)})" if self.lang == "c" else str(int(value))
+        if self.lang != "c" or self.n.ints == "int32_t":  # an int constant: 32 bits wide on both targets
+            return str(int(value))
+        return f"INT64_C({int(value)})"
 
     def state(self, s: str) -> str:
         return f"{self.n.macro}_{s}" if self.lang == "c" else f"State.{s}"

@@ -14,7 +14,7 @@ const stairwell_params_t stairwell_DEFAULT_PARAMS = {
 /*@ assigns \nothing;
   @ ensures \result == ((a < r) ? a : r);
   @*/
-static int64_t stairwell_min_i(int64_t r, int64_t a) { return (a < r) ? a : r; }
+static int32_t stairwell_min_i(int32_t r, int32_t a) { return (a < r) ? a : r; }
 
 /* The spec in ACSL, for the contracts below: each definition and shared rule as a logic function (a boolean term
  * when boolean, so that it may also be the condition of a term) of the context, inputs and params as values; each
@@ -150,7 +150,7 @@ static void stairwell_outputs(const stairwell_ctx_t *c, const stairwell_inputs_t
     (void)c;
     (void)i;
     (void)p;
-    o->lamp = (int8_t)(((c->mode == STAIRWELL_ON) ? INT64_C(2) : ((c->mode == STAIRWELL_WARN) ? INT64_C(1) : INT64_C(0)))); /* if state == ON then 2 else if state == WARN then 1 else 0 (tutorial) */
+    o->lamp = (int8_t)(((c->mode == STAIRWELL_ON) ? 2 : ((c->mode == STAIRWELL_WARN) ? 1 : 0))); /* if state == ON then 2 else if state == WARN then 1 else 0 (tutorial) */
 }
 
 /*@ requires \valid(c);
@@ -228,7 +228,7 @@ static int stairwell_fired_ON(const stairwell_ctx_t *c, const stairwell_inputs_t
     (void)p;
     if (i->press) { /* pressed_again: press (tutorial) */
         fired = 2;
-    } else if ((c->t >= (p->T_ON - INT64_C(1)))) { /* dim: t >= T_ON - 1 (tutorial) */
+    } else if ((c->t >= (p->T_ON - 1))) { /* dim: t >= T_ON - 1 (tutorial) */
         fired = 3;
     } else { /* otherwise: the mode is kept */
         fired = 0;
@@ -260,7 +260,7 @@ static int stairwell_fired_WARN(const stairwell_ctx_t *c, const stairwell_inputs
     (void)p;
     if (i->press) { /* pressed_again: press (tutorial) */
         fired = 2;
-    } else if ((c->t >= (p->T_WARN - INT64_C(1)))) { /* switch_off: t >= T_WARN - 1 (tutorial) */
+    } else if ((c->t >= (p->T_WARN - 1))) { /* switch_off: t >= T_WARN - 1 (tutorial) */
         fired = 4;
     } else { /* otherwise: the mode is kept */
         fired = 0;
@@ -321,13 +321,13 @@ void stairwell_step(stairwell_ctx_t *c, const stairwell_inputs_t *i, const stair
             next.mode = c->mode;
         }
         if (fired == 1) { /* t = 0 */
-            next.t = (int32_t)(INT64_C(0));
+            next.t = (int32_t)(0);
         } else if (fired == 2) { /* t = 0 */
-            next.t = (int32_t)(INT64_C(0));
+            next.t = (int32_t)(0);
         } else if (fired == 3) { /* t = 0 */
-            next.t = (int32_t)(INT64_C(0));
+            next.t = (int32_t)(0);
         } else {
-            next.t = (int32_t)(stairwell_min_i((c->t + INT64_C(1)), INT64_C(120))); /* every step: min(t + 1, 120) */
+            next.t = (int32_t)(stairwell_min_i((c->t + 1), 120)); /* every step: min(t + 1, 120) */
         }
     }
     /*@ assert stepped: stairwell_next(*c, *i, *p, stairwell_first(*c, *i, *p), next); */ /* the contract's transition, before the outputs */
@@ -353,7 +353,7 @@ void stairwell_monitor(const stairwell_ctx_t *before, const stairwell_ctx_t *aft
     (void)i;
     (void)p;
     (void)o;
-    const bool holds0 = ((!i->press) || (o->lamp == INT64_C(2))); /* full-light-after-a-press: press -> lamp == 2 (tutorial) */
+    const bool holds0 = ((!i->press) || (o->lamp == 2)); /* full-light-after-a-press: press -> lamp == 2 (tutorial) */
     const bool holds1 = ((!(prev1 && (c->mode == STAIRWELL_OFF))) || prev0); /* warned-before-dark: prev(not state == OFF) and state == OFF -> prev(state == WARN) (tutorial) */
     failing[0] = !holds0;
     failing[1] = !holds1;
