@@ -53,6 +53,19 @@ def test_the_installed_package_is_the_wheel(installed: Path, tmp_path: Path) -> 
 
 
 @pytest.mark.slow
+def test_the_installed_package_ships_the_spec_schema(installed: Path, tmp_path: Path) -> None:
+    """Package data: the schema editors read, the same text as `mlca-verify schema` writes."""
+    shipped = _run(
+        [str(installed / "python"), "-c",
+         "import importlib.resources as r; print(r.files('mlca_verify.spec').joinpath('spec.schema.json').read_text(), end='')"],
+        tmp_path,
+    )  # fmt: skip
+    written = _run([str(installed / "mlca-verify"), "schema"], tmp_path)
+    assert shipped.returncode == 0 and written.returncode == 0, shipped.stderr + written.stderr
+    assert shipped.stdout == written.stdout and '"title": "mlca-verify spec"' in shipped.stdout
+
+
+@pytest.mark.slow
 def test_the_installed_commands_check_generate_and_conform_elsewhere(installed: Path, tmp_path: Path) -> None:
     shutil.copy(ROOT / "spec" / "mlca.toml", tmp_path / "mine.toml")
     checked = _run([str(installed / "mlca-verify"), "check", "mine.toml", "--quiet"], tmp_path)

@@ -132,6 +132,7 @@ def _parser() -> argparse.ArgumentParser:
     diagram.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
 
     _tests_parser(sub)
+    _schema_parser(sub)
 
     evidence = sub.add_parser("evidence", help="write a self-contained safety-case bundle (evidence.json, index.html)")
     evidence.add_argument("spec", metavar="SPEC", help="the spec of the generated controller")
@@ -156,6 +157,13 @@ def _parser() -> argparse.ArgumentParser:
         "spec/paper/*.toml; for another spec: none)",
     )
     return parser
+
+
+def _schema_parser(sub: Any) -> None:
+    schema = sub.add_parser(
+        "schema", help="write the JSON Schema of the spec format, for editors that validate and complete TOML"
+    )
+    schema.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
 
 
 def _tests_parser(sub: Any) -> None:
@@ -475,6 +483,16 @@ def cmd_diagram(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_schema(args: argparse.Namespace) -> int:
+    from mlca_verify.spec.schema import schema_text
+
+    if args.out:
+        write_text(args.out, schema_text())
+    else:
+        sys.stdout.write(schema_text())
+    return EXIT_OK
+
+
 def default_readings(spec: Path) -> list[str]:
     """The readings shown beside a spec when none are given: for a spec in the same folder as spec/mlca.toml (the
     shipped machines), the paper's three readings; for any other spec, none (another machine's diagrams do not
@@ -537,6 +555,7 @@ COMMANDS = {
     "diagram": cmd_diagram,
     "evidence": cmd_evidence,
     "tests": cmd_tests,
+    "schema": cmd_schema,
 }
 
 
