@@ -28,8 +28,8 @@ sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_check import GREEN, crossing_expanded, crossing_timed  # noqa: E402
 from mlca_verify.codegen import generate  # noqa: E402
-from mlca_verify.conform.c_tools import wp_file  # noqa: E402
-from mlca_verify.conform.generated_code import WP_FLAGS  # noqa: E402
+from mlca_verify.conformance.c_tools import wp_file  # noqa: E402
+from mlca_verify.conformance.generated_code import WP_FLAGS  # noqa: E402
 from mlca_verify.spec import load_spec  # noqa: E402
 
 

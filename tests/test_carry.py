@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mlca_verify.codegen import generate, write
-from mlca_verify.conform import conform
+from mlca_verify.conformance import conform
 from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
 from mlca_verify.logic.binary64 import UNIT, Rounding, nearest

@@ -11,8 +11,8 @@ from mlca_verify.codegen import machine_ir
 from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.certified import Proved, Untranslatable, assumed_text, certify, parse, ranges
 from mlca_verify.codegen.render import render_template
-from mlca_verify.conform.c_tools import wp_file
-from mlca_verify.conform.generated_code import WP_FLAGS
+from mlca_verify.conformance.c_tools import wp_file
+from mlca_verify.conformance.generated_code import WP_FLAGS
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 

@@ -247,7 +247,7 @@ def test_evidence_takes_allow_outside() -> None:
 def test_the_command_line_loads_only_what_check_runs() -> None:
     """`check` never needs the code generator, Jinja, conformance, evidence or the test generator: importing the
     command line leaves them unloaded (they cost `check` a fifth of a second when they were imported up front)."""
-    heavy = ["jinja2", "mlca_verify.codegen", "mlca_verify.conform.generated_code", "mlca_verify.evidence"]
+    heavy = ["jinja2", "mlca_verify.codegen", "mlca_verify.conformance.generated_code", "mlca_verify.evidence"]
     heavy += ["mlca_verify.testgen.suite", "xml.sax.saxutils", "hypothesis"]
     probe = f"import sys, mlca_verify.cli; print([m for m in {heavy!r} if m in sys.modules])"
     loaded = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout

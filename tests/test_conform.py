@@ -16,10 +16,10 @@ from hypothesis import HealthCheck, given, settings
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.render import TEMPLATE_DIR
-from mlca_verify.conform import conform
-from mlca_verify.conform.c_tools import cppcheck_file, external_calls, library_calls
-from mlca_verify.conform.generated_code import Subject, frama_c
-from mlca_verify.conform.outcome import CheckOutcome
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.c_tools import cppcheck_file, external_calls, library_calls
+from mlca_verify.conformance.generated_code import Subject, frama_c
+from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.layout import Layout
 from mlca_verify.logic import check_all
 from mlca_verify.model import Machine

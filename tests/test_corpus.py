@@ -13,7 +13,7 @@ import pytest
 from bench.bench_corpus import weakened
 
 from mlca_verify.cli import main
-from mlca_verify.conform.outcome import CHECKS, CheckOutcome
+from mlca_verify.conformance.outcome import CHECKS, CheckOutcome
 from mlca_verify.evidence.collect import Evidence, argument
 from mlca_verify.logic import check_all
 from mlca_verify.spec import load_spec

@@ -17,8 +17,8 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, write
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import COMPARES_BINARY64, as_wp_sees, needs_arithmetic
-from mlca_verify.conform import conform
-from mlca_verify.conform.outcome import CHECKS, CheckOutcome
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.outcome import CHECKS, CheckOutcome
 from mlca_verify.evidence.collect import Evidence, argument
 from mlca_verify.logic import check_all
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants

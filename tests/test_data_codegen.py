@@ -19,9 +19,9 @@ import pytest
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.widths import narrow, output_bounds
-from mlca_verify.conform import conform
-from mlca_verify.conform.c_tools import WP
-from mlca_verify.conform.generated_code import WP_FLAGS
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.c_tools import WP
+from mlca_verify.conformance.generated_code import WP_FLAGS
 from mlca_verify.layout import Layout
 from mlca_verify.loading import (
     FIRED_MASK,

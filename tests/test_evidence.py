@@ -19,7 +19,7 @@ from markupsafe import escape
 from playwright.sync_api import sync_playwright
 
 from mlca_verify.cli import main
-from mlca_verify.conform.outcome import CHECKS
+from mlca_verify.conformance.outcome import CHECKS
 from mlca_verify.evidence import ClosedLoopRuns
 from mlca_verify.evidence.collect import closed_loop
 from mlca_verify.evidence.coverage import GOAL

@@ -11,8 +11,8 @@ import jsonschema
 import pytest
 
 from mlca_verify.cli import main
-from mlca_verify.conform import conform
-from mlca_verify.conform.outcome import CHECKS, CheckOutcome
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.outcome import CHECKS, CheckOutcome
 from mlca_verify.diagram import FORMATS, render
 from mlca_verify.errors import SpecError
 from mlca_verify.evidence.collect import Evidence, document

@@ -24,7 +24,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "diagram spec_diff",
         "check_report waves codegen",
         "ci_formats loading",
-        "conform regression_tests",
+        "conformance regression_tests",
         "testgen",
         "evidence",
         "cli",

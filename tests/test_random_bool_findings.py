@@ -15,8 +15,8 @@ import pytest
 
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate, write
-from mlca_verify.conform import conform
-from mlca_verify.conform.outcome import CheckOutcome
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.spec import load_spec
 
 CHECKS = ["compile", "exhaustive", "sequences", "frama-c-wp", "cppcheck"]

@@ -14,8 +14,8 @@ import pytest
 
 from mlca_verify.cli import main
 from mlca_verify.codegen import generate, write
-from mlca_verify.conform import conform
-from mlca_verify.conform.outcome import CheckOutcome
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.model import Arith, Cmp, Num, Var
 from mlca_verify.spec import load_spec
 from mlca_verify.testgen.explain import element_of, mode_of

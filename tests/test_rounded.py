@@ -13,8 +13,8 @@ import pytest
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.ir import closing
 from mlca_verify.codegen.rounded import parts_of, rounded_parts
-from mlca_verify.conform import conform
-from mlca_verify.conform.generated_code import binary64_goals
+from mlca_verify.conformance import conform
+from mlca_verify.conformance.generated_code import binary64_goals
 from mlca_verify.model import name_types, prevs_of, show
 from mlca_verify.spec import load_spec
 from mlca_verify.spec.expr_parser import parse_expr

@@ -22,7 +22,7 @@ from mlca_verify.version import __version__
 
 if TYPE_CHECKING:
     from mlca_verify.codegen import drift, generate, write
-    from mlca_verify.conform import CHECKS, Conformance, conform
+    from mlca_verify.conformance import CHECKS, Conformance, conform
     from mlca_verify.layout import Layout
     from mlca_verify.loading import build_c, load_python
     from mlca_verify.logic import check_all, compare
@@ -36,9 +36,9 @@ _HOMES = {
     "drift": "mlca_verify.codegen",
     "generate": "mlca_verify.codegen",
     "write": "mlca_verify.codegen",
-    "CHECKS": "mlca_verify.conform",
-    "Conformance": "mlca_verify.conform",
-    "conform": "mlca_verify.conform",
+    "CHECKS": "mlca_verify.conformance",
+    "Conformance": "mlca_verify.conformance",
+    "conform": "mlca_verify.conformance",
     "check_all": "mlca_verify.logic",
     "compare": "mlca_verify.logic",
     "Result": "mlca_verify.logic.results",

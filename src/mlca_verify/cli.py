@@ -27,7 +27,7 @@ from mlca_verify.cli_base import (
     write_json,
     write_text,
 )
-from mlca_verify.conform.outcome import CHECKS
+from mlca_verify.conformance.outcome import CHECKS
 from mlca_verify.diagram import FORMATS
 from mlca_verify.errors import Loc, ToolError, UsageError
 from mlca_verify.escape import terminal
@@ -404,8 +404,8 @@ def _say_unexpected(spec: LoadedSpec) -> None:
 
 
 def cmd_conform(args: argparse.Namespace) -> int:
-    from mlca_verify.conform import conform
-    from mlca_verify.conform.outcome import CheckOutcome
+    from mlca_verify.conformance import conform
+    from mlca_verify.conformance.outcome import CheckOutcome
 
     names = list(CHECKS) if args.only is None else [n.strip() for n in args.only.split(",") if n.strip()]
     unknown = [n for n in names if n not in CHECKS]

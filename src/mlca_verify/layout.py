@@ -23,14 +23,17 @@ class Layout:
 
     @property
     def python(self) -> Path:
+        """The generated Python module."""
         return self.root / self.relative("python")
 
     @property
     def c_source(self) -> Path:
+        """The generated C source."""
         return self.root / self.relative("c-source")
 
     @property
     def c_header(self) -> Path:
+        """The generated C header."""
         return self.root / self.relative("c-header")
 
     def missing(self) -> list[Path]:

@@ -474,6 +474,9 @@ class Comparison:
 
 @dataclass(frozen=True)
 class Machine:
+    """A loaded spec: its states, inputs, data, transitions and properties, as the engines and the code
+    generator read them (frozen; `load_spec` builds it)."""
+
     name: str
     initial: str
     states: tuple[str, ...]
@@ -507,10 +510,12 @@ class Machine:
 
     @property
     def input_names(self) -> tuple[str, ...]:
+        """The boolean inputs' names, in the spec's order."""
         return tuple(i.name for i in self.inputs)
 
     @property
     def has_data(self) -> bool:
+        """Whether the machine has data: declared, or used where a machine without data has none (arithmetic, prev)."""
         return self.data
 
     def outgoing(self, state: str) -> tuple[Transition, ...]:

@@ -24,8 +24,8 @@ import z3
 from mlca_verify.check_report import cube_text
 from mlca_verify.codegen import machine_ir
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, SHARED_TEMPLATES, TEMPLATE_DIR, TEMPLATES
-from mlca_verify.conform import CHECKS, conform
-from mlca_verify.conform.outcome import CheckOutcome
+from mlca_verify.conformance import CHECKS, conform
+from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.diagram import to_dot
 from mlca_verify.errors import ToolError
 from mlca_verify.evidence import coverage, physics

@@ -114,6 +114,9 @@ class Proof:
 
 @dataclass(frozen=True)
 class Result:
+    """The verdict on one property (`prop`, of `kind`), the one the spec expects, and what shows it: a
+    counterexample, a proof's certificate, or the reason it is unknown (`detail`)."""
+
     prop: str
     kind: Kind
     verdict: Verdict
@@ -128,9 +131,11 @@ class Result:
 
     @property
     def ok(self) -> bool:
+        """Whether the verdict is the one the spec expects."""
         return self.verdict == self.expected
 
     def to_json(self) -> JsonObject:
+        """The result as `check --json` writes it (schema mlca-verify.check/2)."""
         return {
             "property": self.prop,
             "kind": self.kind,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from mlca_verify.codegen import machine_ir
-from mlca_verify.conform.generated_code import random_inputs
+from mlca_verify.conformance.generated_code import random_inputs
 from mlca_verify.errors import ToolError, UsageError
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import Layout

@@ -15,7 +15,7 @@ from fractions import Fraction
 
 from mlca_verify.codegen.lower import real_literal
 from mlca_verify.codegen.render import Escaped, render_template
-from mlca_verify.conform.generated_code import REAL_TOLERANCE
+from mlca_verify.conformance.generated_code import REAL_TOLERANCE
 from mlca_verify.model import Machine
 from mlca_verify.testgen.search import Pair
 from mlca_verify.testgen.suite import Case, MonitorCase, Suite

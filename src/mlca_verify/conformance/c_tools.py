@@ -7,7 +7,7 @@ import re
 import shutil
 from pathlib import Path
 
-from mlca_verify.conform.outcome import CheckOutcome
+from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.errors import ToolError
 from mlca_verify.tools import run
 

@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from mlca_verify.conform.outcome import CHECKS, CheckOutcome, run_checks
+from mlca_verify.conformance.outcome import CHECKS, CheckOutcome, run_checks
 from mlca_verify.errors import UsageError
 from mlca_verify.json_types import JsonObject
 from mlca_verify.layout import Layout
@@ -21,14 +21,18 @@ __all__ = ["CHECKS", "Conformance", "conform"]
 
 @dataclass
 class Conformance:
+    """What `conform` found for one spec: an outcome per check, in the order they ran."""
+
     spec: LoadedSpec
     outcomes: list[CheckOutcome]
 
     @property
     def ok(self) -> bool:
+        """Whether every check passed."""
         return all(o.ok for o in self.outcomes)
 
     def to_json(self) -> JsonObject:
+        """The outcomes as `conform --json` writes them (schema mlca-verify.conform/1)."""
         return {
             "path": self.spec.path,
             "sha256": self.spec.sha256,
@@ -76,7 +80,7 @@ def conform(
 ) -> Conformance:
     """Run `checks` on the code for `spec` found in `generated`; `report` sees each outcome as it lands."""
     from mlca_verify.codegen import machine_ir
-    from mlca_verify.conform.generated_code import SUITE, Subject
+    from mlca_verify.conformance.generated_code import SUITE, Subject
 
     ir = machine_ir(spec, generated)
     layout, fresh = _present(spec, generated, ir.module, template_dir, report)

@@ -28,8 +28,8 @@ from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
-from mlca_verify.conform.c_tools import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
-from mlca_verify.conform.outcome import CheckOutcome, Suite
+from mlca_verify.conformance.c_tools import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
+from mlca_verify.conformance.outcome import CheckOutcome, Suite
 from mlca_verify.layout import Layout
 from mlca_verify.loading import import_generated
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
