@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bench_codegen import callgrind_instructions  # run as a script: bench/ is on the path
+from figures import write_block
 from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec
 
@@ -260,6 +261,7 @@ def main() -> None:
     parser.add_argument(
         "--variants", action="store_true", help="also measure the generated C edited: " + ", ".join(VARIANTS)
     )
+    parser.add_argument("--write-docs", action="store_true", help="write the table into its docs page")
     args = parser.parse_args()
     print(f"{args.steps} steps a machine, generated and hand-written in lockstep with identical modes, variables")
     print("and outputs at every step (gcc -O2 -ffp-contract=off; Cortex-M4 .text of the step and its callees)")
@@ -276,11 +278,26 @@ def main() -> None:
             for label, (per_step, size) in rows.items():
                 print(f"{label:40} {per_step:18.2f} {size:18d}")
             gen, hand = list(rows.values())[:2]
-            summary.append((b.spec, gen[0] / hand[0], gen[1] / hand[1]))
+            summary.append((b.spec, gen, hand))
     print(f"\n{'machine':24} {'instructions ratio':>20} {'.text ratio':>12}")
-    for name, ins, text in summary:
-        print(f"{name:24} {ins:20.3f} {text:12.3f}")
+    for name, gen, hand in summary:
+        print(f"{name:24} {gen[0] / hand[0]:20.3f} {gen[1] / hand[1]:12.3f}")
     print("target: both at most 1.3")
+    if args.write_docs and not args.only:
+        write_block("corpus", _table(summary), f"bench/bench_corpus_code.py --steps {args.steps} --write-docs")
+
+
+def _table(summary: list[tuple[str, tuple[float, int], tuple[float, int]]]) -> list[str]:
+    lines = [
+        "| machine | generated instructions / step | hand-written | ratio | generated `.text` | hand-written | ratio |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, gen, hand in summary:
+        lines.append(
+            f"| `{name}` | {gen[0]:.2f} | {hand[0]:.2f} | **{gen[0] / hand[0]:.3f}** | {gen[1]:,} B | {hand[1]:,} B "
+            f"| **{gen[1] / hand[1]:.3f}** |"
+        )
+    return lines
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-DOCS = [ROOT / "docs" / "findings.md", ROOT / "README.md", ROOT / "docs" / "tutorial.md"]
+DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]  # every page: a block may be on any
 BLOCK = re.compile(r"(<!-- \$ mlca-verify (?P<args>[^\n]*?) -->\n```text\n)(?P<body>.*?)(```)", re.DOTALL)
 
 

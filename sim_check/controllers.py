@@ -64,7 +64,7 @@ def _fsm(machine: str, language: Language, label: str, stands_for: str) -> Setup
 
 # Sec. IV-C of the paper names its comparison models; Sec. II describes them (LC2013, LC2014, LC2017, MOBIL,
 # IDM/LC, Continuous) and Fig. 6 adds "without algorithm".
-SUBLANE_RESOLUTION_M = 3.2  # chosen by bench/bench_matrix.py --lateral (see the README)
+SUBLANE_RESOLUTION_M = 3.2  # chosen by bench/bench_matrix.py --lateral (see docs/explanation/paper-comparison.md)
 SETUPS = {
     s.name: s
     for s in (

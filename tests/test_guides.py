@@ -43,6 +43,15 @@ def test_a_pattern_that_is_wrong_is_caught() -> None:
     assert len(found.counterexample.steps) == 31
 
 
+def test_the_readme_is_short_and_starts_with_the_two_commands() -> None:
+    """The README says what the toolkit is, gives the two commands and an example, and links the rest."""
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 200
+    assert (
+        lines[2:6] == ["```sh", *lines[3:5], "```"] and "scripts/main.sh" in lines[3] and "scripts/test.sh" in lines[4]
+    )
+
+
 def test_every_guide_is_linked_from_the_readme() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     for path in (ROOT / "docs" / "guides").glob("*.md"):
@@ -81,7 +90,9 @@ def test_the_documentation_index_links_every_page_and_only_pages_that_exist() ->
     for target in linked:
         assert (docs / target).resolve().is_file(), target
     pages = [p.relative_to(docs).as_posix() for p in docs.glob("*.md")] + [
-        p.relative_to(docs).as_posix() for folder in ("guides", "reference") for p in (docs / folder).glob("*.md")
+        p.relative_to(docs).as_posix()
+        for folder in ("guides", "reference", "explanation")
+        for p in (docs / folder).glob("*.md")
     ]
     for page in pages:
         assert page == "README.md" or page in linked, f"docs/README.md does not link {page}"

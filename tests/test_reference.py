@@ -17,3 +17,34 @@ def test_the_reference_has_every_command_and_every_flag() -> None:
         assert f"### `mlca-verify {name}`" in text
     for flag in ("--parametric", "--timeout-ms", "--traces", "--sequences", "--no-target", "--readings", "--ray"):
         assert f"`{flag}`" in text
+
+
+def test_the_api_reference_is_what_the_package_says() -> None:
+    """docs/reference/api.md has every public name with its signature and docstring; none lacks a docstring."""
+    import mlca_verify
+    from scripts import api_reference
+
+    text = api_reference.render()
+    assert api_reference.OUT.read_text(encoding="utf-8") == text, "run .venv/bin/python scripts/api_reference.py"
+    for name in mlca_verify.__all__:
+        assert f"## `{name}`" in text
+    assert api_reference.undocumented() == []
+    assert "load_spec(path: str | Path, compare: bool = True, confine: bool = True) -> LoadedSpec" in text
+
+
+def test_every_public_name_is_what_it_says_on_every_access() -> None:
+    """`mv.conform` is the function, the second time too and after its subpackage (`mlca_verify.conformance`) is
+    imported: a subpackage named like the function once replaced it after the first call."""
+    import subprocess
+    import sys
+
+    code = (
+        "import mlca_verify as mv, mlca_verify.conformance, inspect\n"
+        "names = [n for n in mv.__all__ if n != '__version__']\n"
+        "first = {n: getattr(mv, n) for n in names}\n"
+        "assert all(getattr(mv, n) is first[n] for n in names)\n"
+        "assert not any(inspect.ismodule(v) for v in first.values())\n"
+        "assert callable(mv.conform) and mv.conform.__module__ == 'mlca_verify.conformance'\n"
+    )
+    ran = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+    assert ran.returncode == 0, ran.stderr
