@@ -51,7 +51,7 @@ def test_each_block_is_what_its_language_accepts(lang: str, body: str, tmp_path:
     elif lang == "c":
         _compiles(body, tmp_path)
     else:
-        _commands_parse(body)
+        _commands_parse(body, tmp_path)
 
 
 def _compiles(body: str, tmp_path: Path) -> None:
@@ -73,9 +73,9 @@ def _compiles(body: str, tmp_path: Path) -> None:
     assert ran.returncode == 0, ran.stderr
 
 
-def _commands_parse(body: str) -> None:
+def _commands_parse(body: str, tmp_path: Path) -> None:
     """Each command line: `mlca-verify` and `mlca-sim` parsed by their own parsers, `bash scripts/...` a script
-    of the repository."""
+    of the repository, a compiler's run from the repository's root with its output in a folder of its own."""
     seen = 0
     for line in body.splitlines():
         words = shlex.split(line.removeprefix("$ "), comments=True)
@@ -88,6 +88,11 @@ def _commands_parse(body: str) -> None:
             sim_cli._parser().parse_args(words[1:])
         elif words[0] == "bash":
             assert (ROOT / words[1]).is_file(), words[1]
+        elif tool in ("gcc", "arm-none-eabi-gcc"):
+            out = words.index("-o") + 1
+            words[out] = str(tmp_path / Path(words[out]).name)
+            ran = subprocess.run(words, capture_output=True, text=True, check=False, cwd=ROOT)
+            assert ran.returncode == 0, ran.stderr
         else:
             continue
         seen += 1
