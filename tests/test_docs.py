@@ -107,3 +107,30 @@ def test_the_tutorials_spec_excerpts_are_its_files() -> None:
 
     assert body(first) == body(fixed) and first.index('"dim"') < first.index('"pressed_again"')
     assert fixed.index('"pressed_again"') < fixed.index('"dim"')
+
+
+def test_the_feature_table_refusals_are_the_commands(tmp_path: Path) -> None:
+    """The spec language's table says that a nondeterministic reading goes through check and diagram but that
+    gen, conform and tests refuse it, in one line and exit 2: so they do."""
+    import subprocess
+    import sys
+
+    table = LANGUAGE.read_text(encoding="utf-8")
+    row = next(line for line in table.splitlines() if line.startswith('| `semantics = "any-enabled"`'))
+    assert row.count("refused") == 3
+    figure = ROOT / "spec" / "paper" / "figure.toml"
+    commands = [
+        ["gen", str(figure), "--out", str(tmp_path / "g")],
+        ["conform", str(figure), "--generated", str(tmp_path / "g")],
+        ["tests", str(figure), "--out", str(tmp_path / "t"), "--generated", str(tmp_path / "g")],
+    ]
+    for args in commands:
+        ran = subprocess.run([sys.executable, "-m", "mlca_verify", *args], capture_output=True, text=True, check=False)
+        assert ran.returncode == 2 and len(ran.stderr.strip().splitlines()) == 1, (args, ran.stderr)
+        assert "first-match" in ran.stderr
+    drawn = subprocess.run(
+        [sys.executable, "-m", "mlca_verify", "diagram", str(figure), "--format", "scxml"],
+        capture_output=True,
+        check=False,
+    )
+    assert drawn.returncode == 0
