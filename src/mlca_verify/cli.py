@@ -467,6 +467,14 @@ def cmd_tests(args: argparse.Namespace) -> int:
     return EXIT_OK if ok else EXIT_FINDING
 
 
+def _emit(text: str, out: str | None) -> None:
+    """A command's document: to `out` when given, else to standard output."""
+    if out:
+        write_text(out, text)
+    else:
+        sys.stdout.write(text)
+
+
 def cmd_diagram(args: argparse.Namespace) -> int:
     from mlca_verify.diagram import Undrawable
     from mlca_verify.diagram import render as render_diagram
@@ -476,20 +484,14 @@ def cmd_diagram(args: argparse.Namespace) -> int:
         text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
     except Undrawable as err:
         raise UsageError.at(args.spec, str(err)) from None
-    if args.out:
-        write_text(args.out, text)
-    else:
-        sys.stdout.write(text)
+    _emit(text, args.out)
     return EXIT_OK
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
     from mlca_verify.spec.schema import schema_text
 
-    if args.out:
-        write_text(args.out, schema_text())
-    else:
-        sys.stdout.write(schema_text())
+    _emit(schema_text(), args.out)
     return EXIT_OK
 
 

@@ -585,8 +585,8 @@ def reads_context_only(expr: Expr, m: Machine) -> bool:
 
 
 def stored_registers(m: Machine, prevs: Sequence[Prev]) -> frozenset[int]:
-    """The prev() registers (by index in `prevs`) that a step must store: those whose expression reads an input, a
-    signal or an output. Any other one is its expression over the context before the step (at the first step as
-    after it, see `symbolic.System.build_step`), which the monitor computes from that context: the generated
-    step keeps no copy of it."""
+    """The prev() registers (by index in `prevs`) that a step must store: those whose expression reads an input or
+    a signal, directly or through a definition or an output. Any other one is its expression over the context
+    before the step (at the first step as after it, see `symbolic.System.build_step`), which the monitor computes
+    from that context: the generated step keeps no copy of it."""
     return frozenset(k for k, p in enumerate(prevs) if not reads_context_only(p.arg, m))

@@ -15,7 +15,7 @@ from mlca_verify.codegen.rounded import Part as RoundedPart
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.codegen.tidy import known_false, tidy, without_known
-from mlca_verify.codegen.widths import narrow, output_bounds
+from mlca_verify.codegen.widths import widths
 from mlca_verify.logic.kept import kept_ranges
 from mlca_verify.model import (
     Const,
@@ -290,7 +290,8 @@ def _literal(v: Fraction, kind: Type) -> Code:
 
 def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> MachineIR:
     macro = module.upper()
-    names = replace(names_of(m, module, macro), ints="int32_t" if narrow(m) else "int64_t")
+    ints, bounds = widths(m)  # the ints' type, and each int output's bounds: declared, or what the ranges give
+    names = replace(names_of(m, module, macro), ints=ints)
     c, py = Lowering(names, "c"), Lowering(names, "py")
     logic = AcslLowering(names, context_free(m))
     prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
@@ -330,7 +331,6 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
 
     shapes, uses = shared_shapes(m)
     keeps = kept_ranges(m)
-    bounds = output_bounds(m)  # declared, or what the ranges give (see `widths`)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
 
     def chain(state: str, index: int) -> Case:

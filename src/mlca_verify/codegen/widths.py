@@ -14,7 +14,7 @@ when the ranges bound it (a relay's `if state == RUNNING then 1 else 0` is an `i
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from fractions import Fraction
 
 from mlca_verify.intervals import Interval, enclose, machine_intervals
@@ -38,9 +38,19 @@ def code_exprs(m: Machine) -> Iterator[Expr]:
     yield from (i.expr for i in m.invariants)
 
 
-def output_bounds(m: Machine) -> dict[str, tuple[Fraction, Fraction] | None]:
-    """Each int output's bounds: its declared range, else those of its expression when the ranges give them."""
+Bounds = dict[str, tuple[Fraction, Fraction] | None]
+
+
+def widths(m: Machine) -> tuple[str, Bounds]:
+    """The type the code's ints compute in, and each int output's bounds, from one interval analysis."""
     names = machine_intervals(m, at_defaults=False)
+    return ("int32_t" if narrow(m, names) else "int64_t"), output_bounds(m, names)
+
+
+def output_bounds(m: Machine, names: Mapping[str, Interval] | None = None) -> Bounds:
+    """Each int output's bounds: its declared range, else those of its expression when the ranges give them
+    (`names`: `machine_intervals` of the machine, when already computed)."""
+    names = machine_intervals(m, at_defaults=False) if names is None else names
     found: dict[str, tuple[Fraction, Fraction] | None] = {}
     for o in m.outputs:
         if o.type != "int":
@@ -50,14 +60,14 @@ def output_bounds(m: Machine) -> dict[str, tuple[Fraction, Fraction] | None]:
     return found
 
 
-def narrow(m: Machine) -> bool:
+def narrow(m: Machine, names: Mapping[str, Interval] | None = None) -> bool:
     """Whether the code's int arithmetic fits `int32_t` (see the module's text)."""
     ranges = [x.range for group in (m.variables, m.params, m.signals) for x in group if x.type == "int"]
     if not all(_fits(r) for r in ranges):
         return False
-    if not all(_fits(b) for b in output_bounds(m).values()):
+    names = machine_intervals(m, at_defaults=False) if names is None else names
+    if not all(_fits(b) for b in output_bounds(m, names).values()):
         return False
-    names: dict[str, Interval] = machine_intervals(m, at_defaults=False)
     kinds = name_types(m)
     computed = (Num, Arith, Neg, Call, Ite)
     for expr in code_exprs(m):
