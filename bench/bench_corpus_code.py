@@ -178,8 +178,9 @@ def driver(m: Machine, b: Bench, module: str) -> str:
 
 
 def definitions_once(source: str, module: str) -> str:
-    """The generated C with every definition the dispatch and the updates call computed once, before the
-    dispatch, into a file-scope variable they read instead (a measurement only)."""
+    """The generated C with every definition the dispatch and the updates still call (those the generator does
+    not compute once itself, see `codegen.once`) computed before the dispatch, whether the step reads it or not,
+    into a file-scope variable they read instead (a measurement only)."""
     head, cut, body = source.partition(f"static int {module}_fired_")
     names = sorted(set(re.findall(rf"{module}_def_(\w+)\(c, i, p\)", body)))
     kinds = {n: re.search(rf"static (\w+) {module}_def_{n}\(", head).group(1) for n in names}  # type: ignore[union-attr]
@@ -192,7 +193,7 @@ def definitions_once(source: str, module: str) -> str:
 
 
 VARIANTS: dict[str, Callable[[str, str], str]] = {
-    "definitions once": definitions_once,
+    "every definition first": definitions_once,
 }
 
 CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")

@@ -499,3 +499,30 @@ def test_int_arithmetic_is_32_bits_wide_where_the_ranges_show_it_fits(tmp_path: 
     assert "static int64_t bt_min_i(int64_t r, int64_t a)" in source and "INT64_C(1)" in source
     washer = load_spec(ROOT / "tests" / "machines" / "washer_10hz.toml").machine
     assert not narrow(washer)  # FILL_LEVEL - level, over an int signal
+
+
+def test_a_definition_read_twice_on_every_path_is_computed_once(tmp_path: Path) -> None:
+    """The pump's `hot` is read by the trip guard and by the counter's rule on every step: the step computes it
+    once, into a field that both read. MLCA-T's `L` is read twice only when the need is urgent and no lane is safe
+    (`urgent_left`, then `wait_left`), so it stays a call: computing it first would cost every deferring step. The
+    flasher's `stride` is read twice by an `every` rule that its transitions override, so not on every path; the two
+    cars' `a_hears` is read through `a_next`'s rule, whose function computes it."""
+    corpus = ROOT / "tests" / "machines"
+    pump = load_spec(corpus / "pump_debounce_1khz.toml")
+    ir = machine_ir(pump, tmp_path)
+    assert [(g.states, g.names, g.every) for g in ir.once] == [(("RUNNING", "TRIPPED"), ("hot",), True)]
+    source = generate(pump, tmp_path / "p")["c/pumpdebounce_fsm.c"]
+    step = source.split("void pumpdebounce_monitor(")[0]  # the monitor reads it over the context after the step
+    assert step.count("pumpdebounce_def_hot(c, i, p)") == 1  # in pumpdebounce_once alone
+    assert "if ((d->hot && (c->count >= (p->DEBOUNCE - 1))))" in source
+    assert "next.count = (int32_t)((d->hot ? pumpdebounce_min_i((c->count + 1), 10000) : 0));" in source
+    assert "ensures (((d->hot != 0) <==> pumpdebounce_l_hot(*i, *p)));" in source
+    assert machine_ir(load_spec(SPEC), tmp_path).once == ()
+    assert machine_ir(load_spec(corpus / "flasher_100hz.toml"), tmp_path).once == ()
+    cars = machine_ir(load_spec(corpus / "two_cars_gap_10hz.toml"), tmp_path)
+    assert {n for g in cars.once for n in g.names} == {"a_next", "b_next"}
+    battery = machine_ir(load_spec(corpus / "battery_bms_10hz.toml"), tmp_path)
+    assert [(g.states, g.every) for g in battery.once] == [(("OPEN", "PRECHARGE"), False)]
+    text = generate(load_spec(corpus / "battery_bms_10hz.toml"), tmp_path / "b")["c/batterybms_fsm.c"]
+    assert "if ((c->mode == BATTERYBMS_OPEN) || (c->mode == BATTERYBMS_PRECHARGE)) {" in text
+    assert "d->in_window = false; /* not read in this mode */" in text

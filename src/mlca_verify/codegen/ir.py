@@ -8,9 +8,11 @@ import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
+from functools import partial
 
 from mlca_verify.codegen.acsl import AcslLowering, context_free
 from mlca_verify.codegen.lower import Lowering, Names, c_type, names_of, output_type, real_literal
+from mlca_verify.codegen.once import computed_once, mode_paths
 from mlca_verify.codegen.rounded import Part as RoundedPart
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
@@ -113,6 +115,7 @@ class Case:
     never: tuple[Branch, ...] = ()  # a guard its own text makes false (see `tidy`)
     hoisted: int = 0  # the leading branches the step tests before telling the modes apart (see `MachineIR.hoisted`)
     dropped: tuple[Branch, ...] = ()  # those just before the chain's end that go where it goes (see `_trimmed`)
+    once: tuple[str, ...] = ()  # the definitions the step computes once for this mode, read from `d` (see `once`)
 
     @property
     def code(self) -> tuple[Branch, ...]:
@@ -177,6 +180,15 @@ def _hoisted(m: Machine, guards: Sequence[Expr]) -> int:
             break
         count += 1
     return count
+
+
+@dataclass(frozen=True)
+class OnceGroup:
+    """Modes whose steps compute the same definitions once, before their transitions are tested (see `once`)."""
+
+    states: tuple[str, ...]
+    names: tuple[str, ...]
+    every: bool  # the group holds every mode: the step computes them whatever the mode
 
 
 @dataclass(frozen=True)
@@ -256,6 +268,13 @@ class MachineIR:
     # modes apart: a context whose mode is not a state restarts in the fallback mode too, so the order is free
     hoisted: int = 0
     ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
+    once: tuple[OnceGroup, ...] = ()  # the definitions each mode's step computes once (see `once`)
+
+    @property
+    def once_fields(self) -> tuple[Definition, ...]:
+        """The definitions the step computes once in some mode, in the spec's order: the fields of `d`."""
+        wanted = {n for g in self.once for n in g.names}
+        return tuple(d for d in self.definitions if d.name in wanted)
 
     @property
     def kept(self) -> tuple[Register, ...]:
@@ -299,51 +318,43 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     register_args = [substitute(p.arg, computed) for p in prevs]
     stateful = stateful_definitions(m.definitions, (v.name for v in m.variables))
     parts, at = rounded_parts(m, names.types, stateful, register_args)
-    stated_c = Lowering(names, "c", {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()})
-    call = {p.index: f"{module}_lb64_{p.index}({'i, p' if p.free else 'c, i, p'})" for p in parts}
-    stated_l = AcslLowering(names, logic.free, {n: call[k] for n, k in at.items()})
+    part_calls = {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()}
+    stated_cs: dict[frozenset[str], Lowering] = {}
+    stated_l = AcslLowering(
+        names, logic.free, {n: f"{module}_lb64_{k}({'i, p' if parts[k].free else 'c, i, p'})" for n, k in at.items()}
+    )
     c_prev = {p: f"prev{k}" for p, k in prevs.items()}
 
     def code(e: Expr, with_prev: bool = False) -> Code:
         prev = c_prev if with_prev else None
         return Code(c.go(e, prev), py.go(e, prev), show(e), "" if with_prev else logic.go(e))
 
-    def stated(e: Expr, kind: Type) -> Code:
-        """What the step's contract states: the parts that compute on reals read through their functions."""
+    def stated(e: Expr, kind: Type, once: frozenset[str] = frozenset()) -> Code:
+        """What the step's contract states: the parts that compute on reals read through their functions, and in
+        C the definitions in `once` from the fields the step computed them into."""
+        stated_c = stated_cs.setdefault(once, Lowering(names, "c", part_calls, once))
         if id(e) in at and parts[at[id(e)]].kind == kind:  # the whole value, converted inside the function
             return Code(stated_c.go(e), py.as_type(e, kind, None), show(e), stated_l.go(e))
         return Code(
             stated_c.as_type(e, kind, None), py.as_type(e, kind, None), show(e), stated_l.as_type(e, kind, None)
         )
 
-    def number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
-        low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
-        return Field(
-            item.name,  # type: ignore[attr-defined]
-            c_type(kind, bounds),
-            PY_TYPES[kind],
-            item.doc,  # type: ignore[attr-defined]
-            item.cite,  # type: ignore[attr-defined]
-            low=low,
-            high=high,
-            **extra,  # type: ignore[arg-type]
-        )
-
     shapes, uses = shared_shapes(m)
     keeps = kept_ranges(m)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
 
-    def chain(state: str, index: int) -> Case:
+    def chain(state: str, index: int, once: frozenset[str] = frozenset()) -> Case:
         """The mode's branches, each guard written without what the earlier guards' being false decides."""
         known: list[Expr] = []
         branches, guards = [], []
         for t in m.outgoing(state):
             guard = tidy(without_known(t.guard, known), names.types)
-            code = replace(stated(guard, "bool"), text=show(t.guard))
+            code = replace(stated(guard, "bool", once), text=show(t.guard))
             branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite, guard))
             guards.append(guard)
             known += known_false(t.guard)
-        return _case(state, index, tuple(branches), guards, hoisted)
+        return replace(_case(state, index, tuple(branches), guards, hoisted),
+                       once=tuple(d.name for d in m.definitions if d.name in once))  # fmt: skip
 
     stored = stored_registers(m, tuple(prevs))
     direct = not m.variables and not stored
@@ -351,17 +362,20 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     if direct:
         cases = tuple(_trimmed(case) for case in cases)
+    once = {} if direct else _once_sets(m, cases, parts)
+    cases = tuple(chain(s, k, once[s]) for k, s in enumerate(m.states)) if any(once.values()) else cases
+    common = partial(_common, once)
     updates = tuple(
         Update(
             v.name,
             c_type(v.type, v.range),
             tuple(
-                (numbers[t.id], stated(u.expr, v.type))
+                (numbers[t.id], stated(u.expr, v.type, common(t.sources or m.states)))
                 for t in m.transitions
                 for u in t.updates
                 if u.variable == v.name and u.expr != (v.every or Var(v.name))  # else: what the step does anyway
             ),
-            stated(v.every, v.type) if v.every is not None else None,
+            stated(v.every, v.type, common(m.states)) if v.every is not None else None,
         )
         for v in m.variables
     )
@@ -379,10 +393,10 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         fallback=m.fallback_state,
         states=m.states,
         inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
-        signals=tuple(number_field(s, s.type, s.range) for s in m.signals),
-        params=tuple(number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
+        signals=tuple(_number_field(s, s.type, s.range) for s in m.signals),
+        params=tuple(_number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
         variables=tuple(
-            number_field(
+            _number_field(
                 v, v.type, v.range, default=_literal(v.initial, v.type), kept=v.name in keeps or v.type != "int"
             )
             for v in m.variables
@@ -410,6 +424,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
         guards=tuple(stated(t.guard, "bool") for t in m.transitions),
         rounded=tuple(_rounded(p, c) for p in parts),
+        once=_once_groups(m.states, once, [d.name for d in m.definitions]),
     )
     written = tuple(
         replace(case, branches=(*case.branches[: case.hoisted], *case.code), written=case.hoisted + len(case.code),
@@ -429,6 +444,52 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         logic=contracts,
         shapes=code_shapes,
         logic_shapes=tuple(sh for sh in ir.shapes if set(sh.users) & contracts),
+    )
+
+
+def _number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
+    """A signal, param or variable as a field of the code."""
+    low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
+    return Field(
+        item.name,  # type: ignore[attr-defined]
+        c_type(kind, bounds),
+        PY_TYPES[kind],
+        item.doc,  # type: ignore[attr-defined]
+        item.cite,  # type: ignore[attr-defined]
+        low=low,
+        high=high,
+        **extra,  # type: ignore[arg-type]
+    )
+
+
+def _common(once: Mapping[str, frozenset[str]], sources: Sequence[str]) -> frozenset[str]:
+    """What every mode an update runs in (`sources`) computes once."""
+    return frozenset.intersection(*(once[s] for s in sources)) if once else frozenset()
+
+
+def _once_sets(m: Machine, cases: Sequence[Case], parts: Sequence[RoundedPart]) -> dict[str, frozenset[str]]:
+    """Each mode's definitions the step computes once (see `once`): the guards its chain evaluates (a closing
+    branch is the chain's `else`, its guard never evaluated) and the spec's updates."""
+    rules = {d.name: d.expr for d in m.definitions}
+    in_parts = frozenset(n.name for p in parts for n in nodes(p.expr) if isinstance(n, Var) and n.name in rules)
+    guards = {case.state: [b.expr for b in (case.code[:-1] if case.closes else case.code)] for case in cases}
+    return {path.state: computed_once(path, rules, in_parts) for path in mode_paths(m, guards)}
+
+
+def _once_groups(
+    states: Sequence[str], once: Mapping[str, frozenset[str]], order: Sequence[str]
+) -> tuple[OnceGroup, ...]:
+    """The modes that compute the same definitions once, grouped, in the order of the states (the names in the
+    spec's order)."""
+    sets = sorted({once[s] for s in states if once.get(s)}, key=lambda names: min(
+        states.index(s) for s in states if once.get(s) == names))  # fmt: skip
+    return tuple(
+        OnceGroup(
+            tuple(s for s in states if once[s] == names),
+            tuple(n for n in order if n in names),
+            all(once[s] == names for s in states),
+        )
+        for names in sets
     )
 
 

@@ -100,12 +100,16 @@ def names_of(m: Machine, prefix: str, macro: str) -> Names:
 
 class Lowering:
     """One language's text of expressions. `lang` is "c" or "py". `calls` gives, for a node of the spec (by its
-    identity), the text that reads it instead: a call of the function that computes it (see `rounded`)."""
+    identity), the text that reads it instead: a call of the function that computes it (see `rounded`). In C, a
+    definition in `once` is read from the field the step computed it into (see `codegen.once`)."""
 
-    def __init__(self, names: Names, lang: str, calls: Mapping[int, str] | None = None) -> None:
+    def __init__(
+        self, names: Names, lang: str, calls: Mapping[int, str] | None = None, once: frozenset[str] = frozenset()
+    ) -> None:
         self.n = names
         self.lang = lang
         self.calls = calls or {}
+        self.once = once  # the definitions read from the step's fields `d->...`, computed once (see `once`)
 
     def type_of(self, e: Expr) -> Type:
         return type_of(e, self.n.types)
@@ -254,5 +258,7 @@ class Lowering:
         if kind == "arg":  # an argument of a shared shape (see `shapes`)
             return name
         if kind == "definition":
+            if c and name in self.once:
+                return f"d->{name}"
             return f"{self.n.prefix}_def_{name}(c, i, p)" if c else f"_def_{name}(c, i, p)"
         return f"o->{name}" if c else f"o.{name}"
