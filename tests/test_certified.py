@@ -27,19 +27,20 @@ DEFERRAL = (
 
 def test_a_pdr_certificate_reads_over_the_c_context() -> None:
     """The engine's own constants read as the context's members (the mode) or the proof's ghost ones (a register
-    the code does not keep, since it reads the context alone, and with no kept register the first-step flag)."""
+    the code does not keep, since it reads the context alone, and with no kept register the first-step flag; an
+    observer, which the monitor keeps: MLCA-T's need_age)."""
     stated, left = certify(MACHINE, LOWERING, [Proved("deferral", DEFERRAL)])
     assert left == []
     (x,) = stated
     assert x.certificate == (
         "(((!(g.prev0 != 0)) || (!(c.mode >= 2))) && ((!(g.first != 0)) || (!(c.mode >= 1)))"
-        " && (!((c.need_age + ((-1) * c.waited)) <= (-1))) && (!(c.need_age <= (-1))))"
+        " && (!((g.obs.need_age + ((-1) * c.waited)) <= (-1))) && (!(g.obs.need_age <= (-1))))"
     )
     # prev(state in {IDLE, WAITING}): over the context before the step, or at the first step over that same one
     assert (
         "\\at(gp->first, Pre) != 0) ? mlca_t_lprev0(\\at(*cp, Pre), i, p) : (\\at(gp->prev0, Pre) != 0)" in x.invariant
     )
-    assert x.invariant.endswith("|| (c.need_age > p.T_MIN))")  # an implication, as a boolean term
+    assert x.invariant.endswith("|| (g.need_age > p.T_MIN))")  # an implication; g is gp->obs there
 
 
 def test_definitions_without_context_take_only_inputs_and_params() -> None:
@@ -88,7 +89,7 @@ def test_wp_needs_the_certificate(tmp_path: Path) -> None:
                 m=ir,
                 source=str(ROOT / "generated" / "c" / "mlca_t_fsm.c"),
                 certified=stated,
-                in_range=ranges(MACHINE, "cp", "pp", pointer=True),
+                in_range=ranges(MACHINE, "cp", "pp", pointer=True, g="gp"),
                 params_in_range=ranges(MACHINE, None, "p", pointer=False),
                 assumed=assumed_text(MACHINE, LOWERING),
             )

@@ -93,10 +93,11 @@ def _random_values(machine: Machine, rng: random.Random) -> dict[str, object]:
     return values
 
 
-def _step(module: ModuleType, ctx: object, inputs: object) -> tuple[list[str], object]:
+def _step(module: ModuleType, ctx: object, inputs: object, *seen: object) -> tuple[list[str], object]:
+    """One step and the monitor after it; `seen` holds the observers the monitor keeps, where the machine has."""
     before = module.Context(**vars(ctx))
     out = module.step(ctx, inputs)
-    return module.monitor(before, ctx, inputs, module.DEFAULT_PARAMS, out), out
+    return module.monitor(before, ctx, inputs, module.DEFAULT_PARAMS, out, *seen), out
 
 
 def _trusted(results: list[Result]) -> dict[str, Result]:
@@ -108,26 +109,32 @@ def _runs_keep_the_proofs(machine: Machine, module: ModuleType, results: dict[st
     ranges = {v for v in machine.variables if v.range is not None and results.get(f"range:{v.name}")}
     rng = random.Random(len(machine.states) * 7919 + len(machine.transitions))
     for _ in range(RUNS):
-        ctx = module.Context()
+        ctx, seen = module.Context(), _observers(module)
         for k in range(STEPS):
             inputs = _inputs(module, machine, _random_values(machine, rng))
             if machine.otherwise == "undefined" and module._fired(ctx, inputs, module.DEFAULT_PARAMS) == 0:
                 break  # no transition enabled: the spec leaves the step undefined, the engine has no such run
-            failing, _ = _step(module, ctx, inputs)
+            failing, _ = _step(module, ctx, inputs, *seen)
             assert not proved & set(failing), (k, failing)
             for v in ranges:
                 if results[f"range:{v.name}"].verdict == "holds":
-                    assert v.range[0] <= getattr(ctx, v.name) <= v.range[1]
+                    holder = seen[0] if seen and hasattr(seen[0], v.name) else ctx  # an observer: the monitor's
+                    assert v.range[0] <= getattr(holder, v.name) <= v.range[1]
+
+
+def _observers(module: ModuleType) -> tuple[object, ...]:
+    """The observers the module's monitor keeps beside the context (none where it has none)."""
+    return (module.Observers(),) if hasattr(module, "Observers") else ()
 
 
 def _counterexamples_replay(machine: Machine, module: ModuleType, results: dict[str, Result]) -> None:
     for prop, r in results.items():
         if r.kind != "invariant" or r.verdict != "violated" or r.counterexample is None or r.counterexample.params:
             continue
-        ctx = module.Context()
+        ctx, seen = module.Context(), _observers(module)
         failing: list[str] = []
         for step in r.counterexample.steps:
-            failing, _ = _step(module, ctx, _inputs(module, machine, {**step.inputs, **step.signals}))
+            failing, _ = _step(module, ctx, _inputs(module, machine, {**step.inputs, **step.signals}), *seen)
         assert prop in failing, prop
 
 

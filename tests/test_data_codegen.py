@@ -22,6 +22,7 @@ from mlca_verify.codegen.widths import narrow, output_bounds
 from mlca_verify.conformance import conform
 from mlca_verify.conformance.c_tools import WP
 from mlca_verify.conformance.generated_code import WP_FLAGS
+from mlca_verify.errors import SpecError
 from mlca_verify.layout import Layout
 from mlca_verify.loading import (
     FIRED_MASK,
@@ -526,3 +527,71 @@ def test_a_definition_read_twice_on_every_path_is_computed_once(tmp_path: Path) 
     text = generate(load_spec(corpus / "battery_bms_10hz.toml"), tmp_path / "b")["c/batterybms_fsm.c"]
     assert "if ((c->mode == BATTERYBMS_OPEN) || (c->mode == BATTERYBMS_PRECHARGE)) {" in text
     assert "d->in_window = false; /* not read in this mode */" in text
+
+
+def test_the_header_says_where_binary64_becomes_helper_calls() -> None:
+    """The header claims no call into a C library, and for a machine with reals it says that a core without a
+    double-precision FPU turns binary64 into the compiler's helper calls (conform's cortex-m4 check lists them);
+    Alg. 1, without reals, makes no such remark."""
+    with_reals = (GENERATED / "c" / "mlca_t_fsm.h").read_text(encoding="utf-8")
+    without = (GENERATED / "c" / "mlca_fsm.h").read_text(encoding="utf-8")
+    assert "no call into a C library" in with_reals and "no call into a C library" in without
+    assert "libgcc's __aeabi_d*" in with_reals and "binary64" not in without
+
+
+def test_an_observer_lives_in_the_monitor_not_in_the_step(tmp_path: Path) -> None:
+    """MLCA-T's need_age, declared `observer = true`, is read by the deferral invariant alone: the context has no
+    need_age and the step neither stores nor updates it; `mlca_t_observers_t` holds it, and the monitor moves it
+    on (from the context before the step) before it checks the invariants. In Python a run keeps it alike, and the
+    deferral invariant fails when the observer says the need is younger than T_MIN."""
+    header = (GENERATED / "c" / "mlca_t_fsm.h").read_text(encoding="utf-8")
+    source = (GENERATED / "c" / "mlca_t_fsm.c").read_text(encoding="utf-8")
+    context = header.split("} mlca_t_ctx_t;")[0].rsplit("typedef struct {", 1)[1]
+    assert "waited" in context and "need_age" not in context
+    assert "int32_t need_age;" in header.split("} mlca_t_observers_t;")[0].rsplit("typedef struct {", 1)[1]
+    assert "mlca_t_observers_t *g,\n    bool failing[MLCA_T_FAILING]);" in header
+    step = _c_function(source, "void mlca_t_step(")
+    assert "need_age" not in step
+    monitor = _c_function(source, "void mlca_t_monitor(")
+    assert "mlca_t_observe(before, i, p, g, " in monitor and "(g->need_age > p->T_MIN)" in monitor
+    module = import_generated(GENERATED / "python" / "mlca_t_fsm.py", "mlca_t_observed")
+    ctx, seen = module.Context(), module.Observers()
+    assert not hasattr(ctx, "need_age")
+    calm = {"v": 20.0, "gap_lead_left": 1000.0, "gap_follow_left": 1000.0, "v_follow_left": 0.0, "v_lead_left": 0.0}
+    calm |= {k.replace("left", "right"): v for k, v in calm.items()}
+    for _ in range(3):  # the need holds: need_age counts the steps
+        before = module.Context(**vars(ctx))
+        inputs = module.Inputs(N=True, U=False, **calm)
+        out = module.step(ctx, inputs)
+        assert module.monitor(before, ctx, inputs, module.DEFAULT_PARAMS, out, seen) == []
+    assert seen.need_age == 3 and ctx.mode == module.State.WAITING
+    young = module.Context(mode=module.State.MOVING_LEFT, waited=ctx.waited)  # moved before T_MIN steps of need
+    failing = module.monitor(ctx, young, inputs, module.DEFAULT_PARAMS, module.Outputs(command=1), seen)
+    assert "deferral" in failing and seen.need_age == 4
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (
+            ('when = "U and L"', 'when = "U and L and need_age > 0"'),
+            "variable 'need_age' is an observer, but the guard of transition 'urgent_left' reads it",
+        ),
+        (
+            ('every = "if N then min(need_age + 1, 1000) else 0"', 'every = "if N and RHO > 1.5 then 1 else 0"'),
+            "variable 'need_age' is an observer, but it computes on reals",
+        ),
+    ],
+)
+def test_an_observer_that_a_step_reads_is_refused_at_its_key(
+    edit: tuple[str, str], message: str, tmp_path: Path
+) -> None:
+    text = SPEC.read_text(encoding="utf-8")
+    assert edit[0] in text
+    (tmp_path / "t.toml").write_text(text.replace(edit[0], edit[1], 1), encoding="utf-8")
+    with pytest.raises(SpecError) as info:
+        load_spec(tmp_path / "t.toml")
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if t.startswith("need_age = {"))
+    column = text.splitlines()[line - 1].index("observer = true") + len("observer = ") + 1  # at the key's value
+    assert str(info.value).startswith(f"{tmp_path / 't.toml'}:{line}:{column}: error: {message}")
+    assert "\n" not in str(info.value)

@@ -60,7 +60,6 @@ void mlca_t_hand_init(mlca_t_ctx_t *c)
 {
     c->mode = MLCA_T_IDLE;
     c->waited = 0;
-    c->need_age = 0;
 }
 
 void mlca_t_hand_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *in, const mlca_t_params_t *p, mlca_t_outputs_t *o)
@@ -105,6 +104,5 @@ void mlca_t_hand_step(mlca_t_ctx_t *c, const mlca_t_inputs_t *in, const mlca_t_p
     }
     c->mode = mode;
     c->waited = waited;
-    c->need_age = !in->N ? 0 : ((c->need_age < TIMER_MAX) ? (c->need_age + 1) : TIMER_MAX);
     o->command = (mode == MLCA_T_MOVING_LEFT) ? 1 : ((mode == MLCA_T_MOVING_RIGHT) ? -1 : 0);
 }

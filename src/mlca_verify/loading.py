@@ -50,6 +50,23 @@ def flag_definitions(ir: MachineIR) -> tuple[str, ...]:
     return flags
 
 
+class Watched:
+    """A context of the generated Python and the observers its monitor keeps beside it (the variables only
+    invariants read, see `MachineIR.observers`), as one context of `PythonMachine`; `mode` is the context's."""
+
+    def __init__(self, ctx: Any, observers: Any) -> None:
+        self.ctx = ctx
+        self.observers = observers
+
+    @property
+    def mode(self) -> Any:
+        return self.ctx.mode
+
+    @mode.setter
+    def mode(self, value: Any) -> None:
+        self.ctx.mode = value
+
+
 class PythonMachine:
     """The generated Python of a machine, behind the same two calls as its C extension module: `context()`
     is a new context, and `advance(context, *values)` one step and the monitor, in place, answered as
@@ -65,15 +82,18 @@ class PythonMachine:
         self.failing: list[str] = []
 
     def context(self) -> Any:
-        return self.module.Context()
+        m = self.module
+        return Watched(m.Context(), m.Observers()) if hasattr(m, "Observers") else m.Context()
 
     def advance(self, ctx: Any, *values: Any) -> tuple[Any, ...]:
         m = self.module
+        seen = (ctx.observers,) if isinstance(ctx, Watched) else ()
+        ctx = ctx.ctx if isinstance(ctx, Watched) else ctx
         inputs, params = m.Inputs(*values), m.DEFAULT_PARAMS
         before = m.Context(**vars(ctx))
         fired = m._fired(before, inputs, params)
         out = m.step(ctx, inputs, params)
-        self.failing = m.monitor(before, ctx, inputs, params, out)
+        self.failing = m.monitor(before, ctx, inputs, params, out, *seen)
         packed = int(ctx.mode) | (fired + 1) << FIRED_SHIFT | (0 if self.failing else HOLDS)
         for k, flag in enumerate(self.flags):
             if flag(before, inputs, params):

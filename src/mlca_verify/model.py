@@ -340,6 +340,7 @@ class Variable:
     doc: str
     cite: str
     loc: Loc
+    observer: bool = False  # declared `observer = true`: only invariants read it (see `observer_variables`)
 
 
 @dataclass(frozen=True)
@@ -590,3 +591,41 @@ def stored_registers(m: Machine, prevs: Sequence[Prev]) -> frozenset[int]:
     before the step (at the first step as after it, see `symbolic.System.build_step`), which the monitor computes
     from that context: the generated step keeps no copy of it."""
     return frozenset(k for k, p in enumerate(prevs) if not reads_context_only(p.arg, m))
+
+
+def observer_variables(m: Machine) -> frozenset[str]:
+    """The variables declared `observer = true` (MLCA-T's `need_age`): only invariants read them, which the loader
+    checks (`observer_readers`). The product step need not keep them; the monitor keeps them beside the context
+    (see the generated code's `<name>_observers_t`)."""
+    return frozenset(v.name for v in m.variables if v.observer)
+
+
+def observer_readers(m: Machine) -> Iterator[tuple[Variable, str]]:
+    """Each declared observer that something other than an invariant or an observer's update reads, with what
+    reads it, and each that computes on reals (the generated code's binary64 parts read the context alone)."""
+    types = name_types(m)
+    readers: list[tuple[str, Expr]] = [(f"the guard of transition '{t.id}'", t.guard) for t in m.transitions]
+    readers += [(f"output '{o.name}'", o.expr) for o in m.outputs]
+    readers += [(f"definition '{d.name}'", d.expr) for d in m.definitions]
+    readers += [(f"a prev() of invariant '{inv.id}'", p.arg) for inv in m.invariants for p in prevs_of(inv.expr)]
+    readers += [(f"liveness '{live.id}'", x) for live in m.liveness for x in (live.assume, live.goal, live.steps_bound)
+                if x is not None]  # fmt: skip
+    readers += [(f"assumption '{a.id}'", a.expr) for a in m.assumptions]
+    for v in m.variables:
+        if not v.observer:
+            readers += [(f"the update of variable '{v.name}'", e) for e in _updates_of(m, v)]
+    for v in m.variables:
+        if not v.observer:
+            continue
+        if v.type == "real" or any(type_of(n, types) == "real" for e in _updates_of(m, v) for n in nodes(e)):
+            yield v, "it computes on reals (an observer is an int or a bool computed from ints and booleans)"
+            continue
+        found = next((words for words, e in readers if v.name in names_of(e)), None)
+        if found is not None:
+            yield v, f"{found} reads it (only invariants and other observers' updates may)"
+
+
+def _updates_of(m: Machine, v: Variable) -> list[Expr]:
+    """What a variable's value is computed from: its transitions' updates and its `every`."""
+    found = [u.expr for t in m.transitions for u in t.updates if u.variable == v.name]
+    return [*found, *([v.every] if v.every is not None else [])]

@@ -20,7 +20,7 @@ from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
 from mlca_verify.layout import Layout
 from mlca_verify.logic.results import Counterexample, Result
-from mlca_verify.model import Liveness, Machine, Output, Variable, prevs_of
+from mlca_verify.model import Liveness, Machine, Output, Variable, observer_variables, prevs_of
 from mlca_verify.spec import LoadedSpec
 
 LOOP_REPEATS = 3  # a lasso's loop is replayed this many times
@@ -69,6 +69,7 @@ def replay_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[st
         "c_params": Escaped(", ".join(_value_c(cx.params[p.name], ctypes[p.name]) for p in m.params) or "0"),
         "index": next((k for k, inv in enumerate(m.invariants) if inv.id == result.prop), 0),
         "check_from": 0,
+        "observers": bool(observer_variables(m)),  # the monitor keeps them beside the context, in `g`
     }
     if result.kind == "range":
         ranged: list[Variable | Output] = [*m.variables, *m.outputs]
@@ -77,7 +78,8 @@ def replay_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[st
         kind = "double" if element.type == "real" else "int"
         values.update(
             variable=element.name,
-            holder="out" if isinstance(element, Output) else "ctx",  # an output is read from the step's outputs
+            # an output is read from the step's outputs, an observer from what the monitor keeps
+            holder="out" if isinstance(element, Output) else "g" if element.name in observer_variables(m) else "ctx",
             low=Escaped(_value_c(element.range[0] if kind == "double" else int(element.range[0]), kind)),
             high=Escaped(_value_c(element.range[1] if kind == "double" else int(element.range[1]), kind)),
         )

@@ -29,6 +29,7 @@ from mlca_verify.model import (
     StateIn,
     Type,
     Var,
+    observer_variables,
     stateful_definitions,
 )
 
@@ -57,8 +58,8 @@ class AcslLowering(Lowering):
 
     @classmethod
     def of(cls, m: Machine, prefix: str, macro: str) -> AcslLowering:
-        """The lowering of a machine's expressions, with its C names."""
-        return cls(names_of(m, prefix, macro), context_free(m))
+        """The lowering of a machine's expressions, with its C names (an observer read from `g`)."""
+        return cls(names_of(m, prefix, macro, observer_variables(m)), context_free(m))
 
     def args(self, definition: str, c: str = "c", i: str = "i", p: str = "p") -> str:
         """The arguments of a definition's logic function."""
@@ -158,6 +159,8 @@ class AcslLowering(Lowering):
             return f"p.{name}"
         if kind == "variable":
             return f"c.{name}"
+        if kind == "observer":
+            return f"g.{name}"
         if kind == "arg":
             return name
         if kind == "definition":

@@ -23,7 +23,17 @@ from fractions import Fraction
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.ir import binary64
 from mlca_verify.logic.symbolic import input_only
-from mlca_verify.model import Expr, Input, Machine, Prev, Type, own, prevs_of, stored_registers
+from mlca_verify.model import (
+    Expr,
+    Input,
+    Machine,
+    Prev,
+    Type,
+    observer_variables,
+    own,
+    prevs_of,
+    stored_registers,
+)
 
 Sexpr = str | list["Sexpr"]
 COMPARES_BINARY64 = "it compares binary64 values, which z3 bit-blasts; the exhaustive checks cover it"
@@ -77,8 +87,9 @@ def frame_of(
         own("mode@p0"): ("c.mode", "int"),
         own("first@p0"): (holder(None, stored, "first"), "bool"),
     }
+    watched = observer_variables(m)  # kept by the monitor: the proof's ghost keeps them too
     for v in m.variables:
-        terms[f"{v.name}@p0"] = (f"c.{v.name}", v.type)
+        terms[f"{v.name}@p0"] = (f"g.obs.{v.name}" if v.name in watched else f"c.{v.name}", v.type)
     for j, prev in enumerate(inv_prevs):
         k = prev_index[prev]
         terms[own(f"prev{j}@p0")] = (holder(k, stored, f"prev{k}"), types[j])
@@ -283,13 +294,14 @@ def certify(
     return stated, left
 
 
-def ranges(m: Machine, c: str | None, p: str, pointer: bool) -> str:
+def ranges(m: Machine, c: str | None, p: str, pointer: bool, g: str = "gp") -> str:
     """The int variables (none without `c`) and int params in their ranges, over `c` and `p` (pointers or
-    struct values). The real params' ranges are left out, as in the step's own contract: a binary64 term among
-    the hypotheses makes z3 bit-blast (see `codegen.ir.binary64`)."""
+    struct values), an observer over the ghost `g`'s observers. The real params' ranges are left out, as in the
+    step's own contract: a binary64 term among the hypotheses makes z3 bit-blast (see `codegen.ir.binary64`)."""
     dot = "->" if pointer else "."
+    watched = observer_variables(m)
     parts = [
-        f"{int(v.range[0])} <= {c}{dot}{v.name} <= {int(v.range[1])}"
+        f"{int(v.range[0])} <= {f'{g}{dot}obs.' if v.name in watched else f'{c}{dot}'}{v.name} <= {int(v.range[1])}"
         for v in m.variables
         if c is not None and v.type == "int" and v.range is not None
     ]

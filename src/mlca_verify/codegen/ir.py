@@ -27,7 +27,9 @@ from mlca_verify.model import (
     Num,
     Type,
     Var,
+    Variable,
     nodes,
+    observer_variables,
     prevs_of,
     show,
     stateful_definitions,
@@ -60,6 +62,7 @@ class Field:
     low: Code | None = None
     high: Code | None = None
     kept: bool = True  # a variable's range: kept by every step from a context in range (`logic.kept`)
+    observer: bool = False  # a variable only invariants read: the monitor keeps it (see `MachineIR.observers`)
 
 
 @dataclass(frozen=True)
@@ -246,7 +249,7 @@ class MachineIR:
     inputs: tuple[Field, ...]
     signals: tuple[Field, ...]
     params: tuple[Field, ...]
-    variables: tuple[Field, ...]
+    variables: tuple[Field, ...]  # those the context keeps: every variable but the observers
     definitions: tuple[Definition, ...]
     outputs: tuple[Definition, ...]
     cases: tuple[Case, ...]
@@ -269,6 +272,14 @@ class MachineIR:
     hoisted: int = 0
     ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
     once: tuple[OnceGroup, ...] = ()  # the definitions each mode's step computes once (see `once`)
+    observers: tuple[Field, ...] = ()  # the variables only invariants read, kept by the monitor (`<name>_observers_t`)
+    every_variable: tuple[Field, ...] = ()  # the context's and the observers', in the spec's order
+    observer_updates: tuple[Update, ...] = ()  # their updates, which the monitor makes
+
+    @property
+    def observed_by_transition(self) -> bool:
+        """Whether a transition updates an observer (the monitor then needs the transition that fired)."""
+        return any(u.on for u in self.observer_updates)
 
     @property
     def once_fields(self) -> tuple[Definition, ...]:
@@ -310,14 +321,15 @@ def _literal(v: Fraction, kind: Type) -> Code:
 def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> MachineIR:
     macro = module.upper()
     ints, bounds = widths(m)  # the ints' type, and each int output's bounds: declared, or what the ranges give
-    names = replace(names_of(m, module, macro), ints=ints)
+    prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
+    # a register of an output keeps what the output computes
+    register_args = [substitute(p.arg, {o.name: o.expr for o in m.outputs}) for p in prevs]
+    stateful = stateful_definitions(m.definitions, (v.name for v in m.variables))
+    parts, at = rounded_parts(m, names_of(m, module, macro).types, stateful, register_args)
+    observers = observer_variables(m)  # kept by the monitor, not the context
+    names = replace(names_of(m, module, macro, observers), ints=ints)
     c, py = Lowering(names, "c"), Lowering(names, "py")
     logic = AcslLowering(names, context_free(m))
-    prevs = {p: k for k, p in enumerate(prevs_of(*(inv.expr for inv in m.invariants)))}
-    computed = {o.name: o.expr for o in m.outputs}  # a register of an output keeps what the output computes
-    register_args = [substitute(p.arg, computed) for p in prevs]
-    stateful = stateful_definitions(m.definitions, (v.name for v in m.variables))
-    parts, at = rounded_parts(m, names.types, stateful, register_args)
     part_calls = {n: f"{module}_b64_{k}(c, i, p)" for n, k in at.items()}
     stated_cs: dict[frozenset[str], Lowering] = {}
     stated_l = AcslLowering(
@@ -362,23 +374,16 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     if direct:
         cases = tuple(_trimmed(case) for case in cases)
-    once = {} if direct else _once_sets(m, cases, parts)
+    once = {} if direct else _once_sets(m, cases, parts, observers)
     cases = tuple(chain(s, k, once[s]) for k, s in enumerate(m.states)) if any(once.values()) else cases
-    common = partial(_common, once)
     updates = tuple(
-        Update(
-            v.name,
-            c_type(v.type, v.range),
-            tuple(
-                (numbers[t.id], stated(u.expr, v.type, common(t.sources or m.states)))
-                for t in m.transitions
-                for u in t.updates
-                if u.variable == v.name and u.expr != (v.every or Var(v.name))  # else: what the step does anyway
-            ),
-            stated(v.every, v.type, common(m.states)) if v.every is not None else None,
-        )
+        _update(v, m, numbers, stated, _nothing if v.name in observers else partial(_common, once)) for v in m.variables
+    )  # the monitor's update of an observer reads no definition computed once (the step's alone)
+    fields = tuple(
+        _number_field(v, v.type, v.range, default=_literal(v.initial, v.type), kept=v.name in keeps or v.type != "int",
+                      observer=v.name in observers)
         for v in m.variables
-    )
+    )  # fmt: skip
     ir = MachineIR(
         name=m.name,
         module=module,
@@ -395,12 +400,9 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
         signals=tuple(_number_field(s, s.type, s.range) for s in m.signals),
         params=tuple(_number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
-        variables=tuple(
-            _number_field(
-                v, v.type, v.range, default=_literal(v.initial, v.type), kept=v.name in keeps or v.type != "int"
-            )
-            for v in m.variables
-        ),
+        variables=tuple(f for f in fields if not f.observer),
+        observers=tuple(f for f in fields if f.observer),
+        every_variable=fields,
         definitions=tuple(_definition(d, c, py, logic, uses.get(d.name)) for d in m.definitions),
         shapes=tuple(_shape(sh, names, uses) for sh in shapes),
         outputs=tuple(
@@ -418,7 +420,8 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         cases=cases,
         hoisted=hoisted,
         direct=direct,
-        updates=updates,
+        updates=tuple(u for u in updates if u.variable not in observers),
+        observer_updates=tuple(u for u in updates if u.variable in observers),
         registers=tuple(_register(k, arg, c, stated, k in stored) for k, arg in enumerate(register_args)),
         invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
@@ -462,18 +465,51 @@ def _number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | 
     )
 
 
+def _update(
+    v: Variable,
+    m: Machine,
+    numbers: Mapping[str, int],
+    stated: Callable[[Expr, Type, frozenset[str]], Code],
+    once: Callable[[Sequence[str]], frozenset[str]],
+) -> Update:
+    """The variable's update by each transition and every step, reading the definitions `once` gives (for the
+    modes the update runs in) from the fields the step computed them into."""
+    return Update(
+        v.name,
+        c_type(v.type, v.range),
+        tuple(
+            (numbers[t.id], stated(u.expr, v.type, once(t.sources or m.states)))
+            for t in m.transitions
+            for u in t.updates
+            if u.variable == v.name and u.expr != (v.every or Var(v.name))  # else: what the step does anyway
+        ),
+        stated(v.every, v.type, once(m.states)) if v.every is not None else None,
+    )
+
+
+def _nothing(sources: Sequence[str]) -> frozenset[str]:
+    """No definition computed once: for the monitor's updates of the observers."""
+    return frozenset()
+
+
 def _common(once: Mapping[str, frozenset[str]], sources: Sequence[str]) -> frozenset[str]:
     """What every mode an update runs in (`sources`) computes once."""
     return frozenset.intersection(*(once[s] for s in sources)) if once else frozenset()
 
 
-def _once_sets(m: Machine, cases: Sequence[Case], parts: Sequence[RoundedPart]) -> dict[str, frozenset[str]]:
+def _once_sets(
+    m: Machine, cases: Sequence[Case], parts: Sequence[RoundedPart], observers: frozenset[str]
+) -> dict[str, frozenset[str]]:
     """Each mode's definitions the step computes once (see `once`): the guards its chain evaluates (a closing
-    branch is the chain's `else`, its guard never evaluated) and the spec's updates."""
+    branch is the chain's `else`, its guard never evaluated) and the updates of the variables it keeps (not the
+    observers', which the monitor makes)."""
     rules = {d.name: d.expr for d in m.definitions}
     in_parts = frozenset(n.name for p in parts for n in nodes(p.expr) if isinstance(n, Var) and n.name in rules)
     guards = {case.state: [b.expr for b in (case.code[:-1] if case.closes else case.code)] for case in cases}
-    return {path.state: computed_once(path, rules, in_parts) for path in mode_paths(m, guards)}
+    kept = replace(m, variables=tuple(v for v in m.variables if v.name not in observers),
+                   transitions=tuple(replace(t, updates=tuple(u for u in t.updates if u.variable not in observers))
+                                     for t in m.transitions))  # fmt: skip
+    return {path.state: computed_once(path, rules, in_parts) for path in mode_paths(kept, guards)}
 
 
 def _once_groups(

@@ -81,7 +81,8 @@ class Names:
     ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
 
 
-def names_of(m: Machine, prefix: str, macro: str) -> Names:
+def names_of(m: Machine, prefix: str, macro: str, observers: frozenset[str] = frozenset()) -> Names:
+    """How the code reads each name of `m`; the variables in `observers` are the monitor's (see `ir.observers`)."""
     kinds: dict[str, str] = {i.name: "input" for i in m.inputs}
     types: dict[str, Type] = {i.name: "bool" for i in m.inputs}
     for group, kind in (
@@ -94,6 +95,7 @@ def names_of(m: Machine, prefix: str, macro: str) -> Names:
         for item in group:
             kinds[item.name] = kind
             types[item.name] = item.type
+    kinds.update({name: "observer" for name in observers})
     ranges = {s.name: s.range for s in m.signals}
     return Names(kinds, types, {s: k for k, s in enumerate(m.states)}, prefix, macro, ranges)
 
@@ -255,6 +257,8 @@ class Lowering:
             return f"p->{name}" if c else f"p.{name}"
         if kind == "variable":
             return f"c->{name}" if c else f"c.{name}"
+        if kind == "observer":  # kept by the monitor, beside the context
+            return f"g->{name}" if c else f"g.{name}"
         if kind == "arg":  # an argument of a shared shape (see `shapes`)
             return name
         if kind == "definition":

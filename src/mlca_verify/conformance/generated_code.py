@@ -96,7 +96,7 @@ class Columns:
 
     def __init__(self, ir: MachineIR) -> None:
         self.ir = ir
-        self.var_real = [v.ctype == "double" for v in ir.variables]
+        self.var_real = [v.ctype == "double" for v in ir.every_variable]
         self.reg_real = [r.ctype == "double" for r in ir.kept]
         self.out_real = [o.ctype == "double" for o in ir.outputs]
 
@@ -112,11 +112,12 @@ class Columns:
     def python_step(self, py: ModuleType, row: Row) -> Row:
         ir = self.ir
         ctx, inputs = self.split(py, row)
+        seen = self.observers(py, row)
         before = py.Context(**vars(ctx))
         out = py.step(ctx, inputs)
-        failing = py.monitor(before, ctx, inputs, py.DEFAULT_PARAMS, out)
+        failing = py.monitor(before, ctx, inputs, py.DEFAULT_PARAMS, out, *seen)
         values: list[object] = [int(ctx.mode)]
-        values += [getattr(ctx, v.name) for v in ir.variables]
+        values += [getattr(seen[0] if v.observer else ctx, v.name) for v in ir.every_variable]
         values += [getattr(ctx, f"prev{r.index}") for r in ir.kept]
         if ir.first_flag:
             values.append(1 if ctx.first else 0)
@@ -130,8 +131,9 @@ class Columns:
         ctx = py.Context()
         ctx.mode = row[k]
         k += 1
-        for v in ir.variables:
-            setattr(ctx, v.name, row[k])
+        for v in ir.every_variable:
+            if not v.observer:
+                setattr(ctx, v.name, row[k])
             k += 1
         for r in ir.kept:
             setattr(ctx, f"prev{r.index}", bool(row[k]) if r.pytype == "bool" else row[k])
@@ -143,6 +145,17 @@ class Columns:
         k += len(ir.inputs)
         values.update({f.name: row[k + n] for n, f in enumerate(ir.signals)})
         return ctx, py.Inputs(**values)
+
+    def observers(self, py: ModuleType, row: Row) -> tuple[Any, ...]:
+        """The Python module's observers that `row` holds: none where the machine has none (see
+        `MachineIR.observers`)."""
+        if not self.ir.observers:
+            return ()
+        g = py.Observers()
+        for k, v in enumerate(self.ir.every_variable, 1):
+            if v.observer:
+                setattr(g, v.name, row[k])
+        return (g,)
 
     def next_row(self, after: Row, inputs: Row) -> Row:
         """The harness row of the next step: the context after this one, then new inputs."""
@@ -168,7 +181,7 @@ def _flags(ir: MachineIR) -> int:
 
 def context_width(ir: MachineIR) -> int:
     """The columns of a context: the mode, the variables, the registers and the first-step flag if kept."""
-    return 1 + len(ir.variables) + len(ir.kept) + _flags(ir)
+    return 1 + len(ir.every_variable) + len(ir.kept) + _flags(ir)
 
 
 def boundary_rows(ir: MachineIR) -> Iterator[Row]:
@@ -177,7 +190,7 @@ def boundary_rows(ir: MachineIR) -> Iterator[Row]:
     mids: list[float | int] = [_mid(f) for f in ir.signals]
     initial = _initial(ir)
     contexts = [initial]
-    for k in range(len(ir.variables)):
+    for k in range(len(ir.every_variable)):
         contexts += [[*initial[:k], x, *initial[k + 1 :]] for x in variable_values(ir, k)]
     signal_sets = [mids]
     for k, f in enumerate(ir.signals):
@@ -195,13 +208,13 @@ def boundary_rows(ir: MachineIR) -> Iterator[Row]:
 
 def _initial(ir: MachineIR) -> list[float | int]:
     """Each variable's initial value."""
-    return [_value(v.default.c, v.ctype) for v in ir.variables]  # type: ignore[union-attr]
+    return [_value(v.default.c, v.ctype) for v in ir.every_variable]  # type: ignore[union-attr]
 
 
 def variable_values(ir: MachineIR, k: int) -> list[float | int]:
     """0, the limits and, for an int, each int param's default and its neighbours (the thresholds a timer is
     compared with), within the variable's range."""
-    v = ir.variables[k]
+    v = ir.every_variable[k]
     values: set[float | int] = {0}
     if v.low is not None and v.high is not None:
         low, high = _value(v.low.c, v.ctype), _value(v.high.c, v.ctype)
@@ -343,7 +356,7 @@ def exhaustive(t: Subject, code: Code) -> CheckOutcome:
     rows = list(boundary_rows(t.ir))
     restarts = restart_rows(t.ir, rows)
     c_rows = run_harness(code.harness, [*rows, *restarts], columns)
-    keep = 1 + len(t.ir.variables)
+    keep = 1 + len(t.ir.every_variable)
     outputs = slice(context_width(t.ir), context_width(t.ir) + len(t.ir.outputs))
     for row, c_after in zip(rows, c_rows[: len(rows)], strict=True):
         differ = _languages_differ(code.py, columns, row, c_after)
@@ -362,7 +375,7 @@ def exhaustive(t: Subject, code: Code) -> CheckOutcome:
     detail = (
         f"{len(rows)} steps ({_boundary_words(t.ir)}): Python and C agree bit for bit, and both agree with z3's "
         f"semantics of the spec; {len(restarts)} steps from a mode that names no state: both restart in "
-        f"{t.ir.fallback}{' with the initial values' if t.ir.variables or t.ir.kept else ''}"
+        f"{t.ir.fallback}{' with the initial values' if t.ir.every_variable or t.ir.kept else ''}"
     )
     return CheckOutcome("exhaustive", True, detail, data={"steps": len(rows), "restarts": len(restarts)})
 
@@ -374,7 +387,7 @@ def _boundary_words(ir: MachineIR) -> str:
     ]
     if ir.signals:
         parts.append("each signal at its range ends, just outside, the middle, ±0, NaN, ±infinity and a subnormal")
-    if ir.variables:
+    if ir.every_variable:
         parts.append("each variable at 0, its limits and its initial value")
     return "; ".join(parts)
 
@@ -382,7 +395,7 @@ def _boundary_words(ir: MachineIR) -> str:
 def restart_rows(ir: MachineIR, rows: Sequence[Row]) -> list[Row]:
     """The boundary rows of the first mode after the first step, each with a mode that names no state instead (a
     context corrupted during a run)."""
-    flag = 1 + len(ir.variables) + len(ir.kept)
+    flag = 1 + len(ir.every_variable) + len(ir.kept)
     return [(len(ir.states), *row[1:]) for row in rows if row[0] == 0 and (not ir.first_flag or row[flag] == 0)]
 
 
@@ -444,7 +457,7 @@ def sequences(t: Subject, code: Code) -> CheckOutcome:
     for seed in range(max(1, t.sequences // 100)):
         rng = random.Random(seed)
         ctx = code.py.Context()
-        row: Row = (int(ctx.mode), *[getattr(ctx, v.name) for v in t.ir.variables])
+        row: Row = (int(ctx.mode), *_initial(t.ir))
         row = (*row, *(False if r.pytype == "bool" else 0 for r in t.ir.kept), *[1] * _flags(t.ir))
         rows: list[Row] = []
         py_rows: list[Row] = []
@@ -496,7 +509,7 @@ def _assumptions(machine: Machine, ir: MachineIR) -> Callable[[Row], bool]:
         return lambda row: True
     semantics = Binary64(machine)
     params = {p.name: float(p.default) if p.type == "real" else int(p.default) for p in machine.params}
-    names = [v.name for v in ir.variables]
+    names = [v.name for v in ir.every_variable]
     first_input = context_width(ir)
     inputs = [f.name for f in ir.inputs] + [f.name for f in ir.signals]
 
@@ -676,7 +689,7 @@ def certified_invariants(t: Subject) -> CheckOutcome:
         m=t.ir,
         source=str(t.layout.c_source.resolve()),
         certified=stated,
-        in_range=ranges(t.machine, "cp", "pp", pointer=True),
+        in_range=ranges(t.machine, "cp", "pp", pointer=True, g="gp"),
         params_in_range=ranges(t.machine, None, "p", pointer=False),
         assumed=assumed_text(t.machine, lowering),
     )

@@ -200,6 +200,7 @@ class DataBuilder:
                     item["doc"],
                     item.get("cite", ""),
                     self.where.loc(path),
+                    item.get("observer", False),
                 )
             )
         return tuple(result)

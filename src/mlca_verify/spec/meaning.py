@@ -30,6 +30,7 @@ from mlca_verify.model import (
     Verdict,
     is_boolean_only,
     nodes,
+    observer_readers,
     stateful_definitions,
 )
 from mlca_verify.model import Call as CallNode
@@ -161,7 +162,7 @@ class MeaningChecker:
             step_s = b.number(("machine", "step_s"), m["step_s"], "real")
             if step_s <= 0:
                 raise self.fail(("machine", "step_s"), "'step_s' must be positive")
-        return Machine(
+        return self.observed(Machine(
             name=m["name"],
             initial=m["initial"],
             fallback=m.get("fallback", m["initial"]),
@@ -188,7 +189,13 @@ class MeaningChecker:
             step_s=step_s,
             lemmas=lemmas,
             data=self.data,
-        )
+        ))  # fmt: skip
+
+    def observed(self, machine: Machine) -> Machine:
+        """The machine, once no declared observer is read where only invariants may read one."""
+        for v, why in observer_readers(machine):
+            raise self.fail(("variables", v.name, "observer"), f"variable '{v.name}' is an observer, but {why}")
+        return machine
 
     def choice(self, path: KeyPath, value: str, allowed: tuple[str, ...]) -> str:
         if value not in allowed:

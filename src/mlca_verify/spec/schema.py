@@ -66,6 +66,9 @@ _SECTION_KEYS = {
     ("variables", "type"): "int or real.",
     ("variables", "initial"): "Its value before the first step.",
     ("variables", "every"): "Its value after every step in which no transition updates it (default: kept).",
+    ("variables", "observer"): (
+        "true: only invariants read it (an observer for a property); the generated monitor keeps it, not the step."
+    ),
     ("definitions", "expr"): "Its value, over inputs, signals, params, variables and earlier definitions.",
     ("definitions", "if_invalid"): "Its value when a signal it reads is invalid (outside its range, NaN, infinite).",
     ("outputs", "expr"): "Its value after each step, over the context after it, the inputs and the params.",

@@ -94,6 +94,7 @@ VARIABLE = {
     "initial": Field("number", True),
     "range": Field("range"),
     "every": Field("str"),
+    "observer": Field("bool"),
     "unit": Field("str"),
     "doc": Field("str", True),
     "cite": Field("str"),

@@ -16,7 +16,7 @@ from fractions import Fraction
 from mlca_verify.codegen.lower import real_literal
 from mlca_verify.codegen.render import Escaped, render_template
 from mlca_verify.conformance.generated_code import REAL_TOLERANCE
-from mlca_verify.model import Machine
+from mlca_verify.model import Machine, observer_variables
 from mlca_verify.testgen.search import Pair
 from mlca_verify.testgen.suite import Case, MonitorCase, Suite
 
@@ -144,11 +144,12 @@ def c_suite(suite: Suite, header: Header, sequence: Sequence[Mapping[str, object
     m = suite.machine
     real = _types(m)
     invariants = [i.id for i in m.invariants]
+    watched = observer_variables(m)
     runs = []
     for c in suite.cases:
         steps = []
         for inputs, e in zip(c.inputs, c.expected, strict=True):
-            variables = dict(zip((v.name for v in m.variables), e.variables, strict=True))
+            variables, seen = _apart(dict(zip((v.name for v in m.variables), e.variables, strict=True)), watched)
             outputs = dict(zip((o.name for o in m.outputs), e.outputs, strict=True))
             steps.append(
                 (
@@ -157,16 +158,18 @@ def c_suite(suite: Suite, header: Header, sequence: Sequence[Mapping[str, object
                     _c_struct(variables, real) if variables else Escaped("{0}"),
                     _c_struct(outputs, real) if outputs else Escaped("{0}"),
                     _mask(e.failing, invariants),
+                    _c_struct(seen, real),
                 )
             )
-        start = Escaped("{0}") if c.start is None else _c_struct(dict(c.start), real)
-        runs.append((c.name, c.start is not None, start, steps))
-    monitors = [_c_monitor(c, real, invariants) for c in suite.monitor]
+        start, start_seen = _apart(dict(c.start or {}), watched)
+        runs.append((c.name, c.start is not None, _c_struct(start, real), steps, _c_struct(start_seen, real)))
+    monitors = [_c_monitor(c, real, invariants, watched) for c in suite.monitor]
     params = [(p.name, _c_struct(dict(p.values), real), p.valid) for p in suite.params]
     return render_template(
         "mcdc_runner.c.j2",
         h=header,
         m=m,
+        observers=[v.name for v in m.variables if v.name in watched],
         **real_comparison(m),
         module=m.name.lower(),
         macro=m.name.upper(),
@@ -187,16 +190,26 @@ def _mask(failing: Sequence[str], invariants: list[str]) -> str:
     return f"0x{bits:x}u"
 
 
-def _c_monitor(case: MonitorCase, real: dict[str, bool], invariants: list[str]) -> tuple[object, ...]:
+def _apart(values: Mapping[str, object], watched: frozenset[str]) -> tuple[dict[str, object], dict[str, object]]:
+    """A context's values as the code holds them: the context's, and the observers' (see `MachineIR.observers`)."""
+    ours = {k: v for k, v in values.items() if k not in watched}
+    return ours, {k: v for k, v in values.items() if k in watched}
+
+
+def _c_monitor(
+    case: MonitorCase, real: dict[str, bool], invariants: list[str], watched: frozenset[str]
+) -> tuple[object, ...]:
     s = case.snapshot
+    before, seen = _apart(dict(s.before), watched)
     return (
         case.name,
-        _c_struct(dict(s.before), real),
-        _c_struct(dict(s.after), real),
+        _c_struct(before, real),
+        _c_struct(_apart(dict(s.after), watched)[0], real),
         _c_struct(dict(s.inputs), real),
         _c_struct(dict(s.outputs), real) if s.outputs else Escaped("{0}"),
         _mask(s.failing, invariants),
         int(s.after["mode"]),
+        _c_struct(seen, real),
     )
 
 

@@ -32,7 +32,20 @@ from mlca_verify.logic.symbolic import (
     python_value,
     value_of,
 )
-from mlca_verify.model import BinOp, Cmp, Expr, Machine, Not, Var, nodes, own, prevs_of, show, stored_registers
+from mlca_verify.model import (
+    BinOp,
+    Cmp,
+    Expr,
+    Machine,
+    Not,
+    Var,
+    nodes,
+    observer_variables,
+    own,
+    prevs_of,
+    show,
+    stored_registers,
+)
 from mlca_verify.testgen.objectives import Decision, Objective, atoms, rule
 
 MARGIN = Fraction(1, 64)  # how far apart the two sides of a real comparison are kept at a concrete step
@@ -298,6 +311,15 @@ def unkept(s: System, f: Frame, i: StepInputs, stored: frozenset[int]) -> list[z
     return [f.registers[k] == s.ev(p.arg, here) for k, p in enumerate(s.prevs) if k not in stored]
 
 
+def observed(s: System, pre: Frame, i: StepInputs, post: Frame) -> list[z3.BoolRef]:
+    """Each observer after a monitor call is what the step from `pre` makes of it: the code's monitor keeps the
+    observers and moves them on itself (see `model.observer_variables`), where a made-up context after the step
+    could hold any value."""
+    before = s.valuation(pre, i)
+    fired, _ = s.fire(before)
+    return [post.variables[n] == s.next_value(n, before, fired) for n in sorted(observer_variables(s.m))]
+
+
 def _bool_def(machine: Machine, name: str) -> bool:
     d = next(d for d in machine.definitions if d.name == name)
     return d.type == "bool" and bool(d.signals)
@@ -447,6 +469,7 @@ class Search:
         # the context after may hold a mode that names no state (the monitor's A1 and `state_valid` see it)
         sane = [s.well_formed(pre), post.mode >= 0, post.mode <= len(s.m.states), z3.Not(post.first)]
         sane += unkept(s, pre, i, self.unrolling.stored)
+        sane += observed(s, pre, i, post)
         sane += signal_bounds(s, i)
         sane += [s.param_ranges(s.param_values(post)), s.assumptions(pre, i), *self.in_range(pre), *self.in_range(post)]
         return pre, i, post, Point(before, after, 0), z3.And(*sane)

@@ -3,9 +3,7 @@
  * Do not edit: regenerate with `mlca-verify gen stairwell.toml`.
  *
  * The Stairwell controller (tutorial: a stairwell light on a timer): its mode, variables and outputs, as the spec defines
- * them. C99, no heap, no recursion, no library calls. Reals are IEEE 754 binary64 and must not be contracted
- * into fused operations (-ffp-contract=off, the default of gcc -std=c99), so that every result equals the
- * generated Python's bit for bit.
+ * them. C99, no heap, no recursion, no call into a C library.
  */
 #ifndef STAIRWELL_FSM_H
 #define STAIRWELL_FSM_H
