@@ -27,6 +27,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "conformance regression_tests",
         "testgen",
         "evidence",
+        "report_schemas",  # the reports' JSON Schemas, from the names their writers use
         "cli",
         "__main__",
     )

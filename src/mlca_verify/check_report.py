@@ -222,7 +222,7 @@ def summary_text(results: Sequence[Result]) -> str:
 
 
 def check_document(specs: Sequence[tuple[str, str, str, Sequence[Result]]]) -> JsonObject:
-    """The `mlca-verify check --json` document (schema mlca-verify.check/1)."""
+    """The `mlca-verify check --json` document (schema mlca-verify.check/2, CHECK_SCHEMA)."""
     return {
         "schema": CHECK_SCHEMA,
         "specs": [

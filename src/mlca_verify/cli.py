@@ -27,6 +27,7 @@ from mlca_verify.cli_base import (
     write_json,
     write_text,
 )
+from mlca_verify.conformance import CONFORM_SCHEMA
 from mlca_verify.conformance.outcome import CHECKS
 from mlca_verify.diagram import FORMATS
 from mlca_verify.errors import Loc, ToolError, UsageError
@@ -63,7 +64,9 @@ def _parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="prove every built-in check and declared property of each spec")
     check.add_argument("specs", nargs="+", metavar="SPEC", help="spec files (TOML)")
-    check.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.check/2)")
+    check.add_argument(
+        "--json", metavar="FILE", help=f"also write the results as JSON (schema {check_report.CHECK_SCHEMA})"
+    )
     check.add_argument(
         "--parametric",
         action="store_true",
@@ -120,7 +123,7 @@ def _parser() -> argparse.ArgumentParser:
     conform.add_argument(
         "--generated", default="generated", metavar="DIR", help="where the code is (default: generated)"
     )
-    conform.add_argument("--json", metavar="FILE", help="also write the results as JSON (schema mlca-verify.conform/1)")
+    conform.add_argument("--json", metavar="FILE", help=f"also write the results as JSON (schema {CONFORM_SCHEMA})")
     conform.add_argument("--only", metavar="CHECKS", help=f"comma-separated subset of: {', '.join(CHECKS)}")
     conform.add_argument(
         "--sequences", type=whole_number(1, 100_000), default=200, help="random input sequences to run (default 200)"
@@ -159,11 +162,24 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+# the reports `schema --report` writes the JSON Schema of (mlca_verify.report_schemas.REPORTS, which a test holds
+# this to; that module is imported when a schema is asked for)
+REPORTS = ("check", "conform", "tests", "evidence")
+
+
 def _schema_parser(sub: Any) -> None:
     schema = sub.add_parser(
-        "schema", help="write the JSON Schema of the spec format, for editors that validate and complete TOML"
+        "schema",
+        help="write the JSON Schema of the spec format, for editors that validate and complete TOML, or of a JSON "
+        "report",
     )
     schema.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
+    schema.add_argument(
+        "--report",
+        choices=REPORTS,
+        help="write the schema of this report instead: check --json, conform --json, the coverage.json of tests, "
+        "or evidence.json",
+    )
 
 
 def _tests_parser(sub: Any) -> None:
@@ -432,7 +448,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
         note = f" ({skipped} not run)" if skipped else ""
         say(f"{spec.path}: {sum(o.ok for o in ran)} of {len(ran)} checks passed{note}\n")
     if args.json:
-        write_json(args.json, {"schema": "mlca-verify.conform/1", "specs": [r.to_json() for r in results]})
+        write_json(args.json, {"schema": CONFORM_SCHEMA, "specs": [r.to_json() for r in results]})
     return EXIT_OK if all(r.ok for r in results) else EXIT_FINDING
 
 
@@ -489,9 +505,14 @@ def cmd_diagram(args: argparse.Namespace) -> int:
 
 
 def cmd_schema(args: argparse.Namespace) -> int:
-    from mlca_verify.spec.schema import schema_text
+    if args.report is None:
+        from mlca_verify.spec.schema import schema_text
 
-    _emit(schema_text(), args.out)
+        _emit(schema_text(), args.out)
+    else:
+        from mlca_verify.report_schemas import schema_text as report_schema_text
+
+        _emit(report_schema_text(args.report), args.out)
     return EXIT_OK
 
 

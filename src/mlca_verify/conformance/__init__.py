@@ -16,7 +16,9 @@ from mlca_verify.json_types import JsonObject
 from mlca_verify.layout import Layout
 from mlca_verify.spec import LoadedSpec
 
-__all__ = ["CHECKS", "Conformance", "conform"]
+__all__ = ["CHECKS", "CONFORM_SCHEMA", "Conformance", "conform"]
+
+CONFORM_SCHEMA = "mlca-verify.conform/1"  # the schema string of `conform --json`
 
 
 @dataclass

@@ -41,6 +41,7 @@ from mlca_verify.spec.types import show_unit
 from mlca_verify.tools import run
 from mlca_verify.version import __version__
 
+EVIDENCE_SCHEMA = "mlca-verify.evidence/1"  # the schema string of evidence.json
 TOOL_VERSIONS = {
     "gcc": ["gcc", "--version"],
     "frama-c": ["frama-c", "-version"],
@@ -145,7 +146,7 @@ def collect(
 
 def document(ev: Evidence) -> dict[str, Any]:
     doc = {
-        "schema": "mlca-verify.evidence/1",
+        "schema": EVIDENCE_SCHEMA,
         "generated_at": ev.generated_at,
         "spec": {
             "path": ev.spec.path,

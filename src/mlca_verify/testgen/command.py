@@ -31,6 +31,7 @@ from mlca_verify.testgen.suite import Suite, generate
 from mlca_verify.tools import run
 
 Say = Callable[[str], None]
+TESTS_SCHEMA = "mlca-verify.tests/1"  # the schema string of coverage.json
 SEQUENCE_STEPS = 2_000  # steps of the conformance sequence the C program runs on host and target
 
 
@@ -174,7 +175,7 @@ def _coverage_line(c: Coverage) -> str:
 def report_json(r: TestsReport) -> dict[str, Any]:
     s = r.suite
     return {
-        "schema": "mlca-verify.tests/1",
+        "schema": TESTS_SCHEMA,
         "spec": r.spec.path,
         "sha256": r.spec.sha256,
         "machine": s.machine.name,
