@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import difflib
 import hashlib
 import json
@@ -48,7 +49,7 @@ def bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 @pytest.mark.slow
 def test_evidence_json_matches_its_schema(bundles: tuple[Path, Path]) -> None:
     doc = json.loads((bundles[0] / "evidence.json").read_text())
-    schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
+    schema = json.loads((ROOT / "src/mlca_verify/schemas/evidence-1.schema.json").read_text())
     jsonschema.validate(doc, schema, format_checker=jsonschema.FormatChecker())
     assert doc["ok"] is True and doc["generated_at"] == "2025-11-24T16:00:00+00:00"
     wp = next(c for c in doc["conformance"] if c["name"] == "frama-c-wp")
@@ -237,8 +238,12 @@ def corpus_bundles(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path
 def test_data_machine_bundle_matches_its_schema_and_shows_its_data(data_bundle: Path) -> None:
     m = load_spec(ROOT / MLCA_T).machine
     doc = json.loads((data_bundle / "evidence.json").read_text())
-    schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
+    schema = json.loads((ROOT / "src/mlca_verify/schemas/evidence-1.schema.json").read_text())
     jsonschema.validate(doc, schema, format_checker=jsonschema.FormatChecker())
+    for path, wrong in ((("params", 0, "default"), 1.5), (("signals", 0, "type"), "float")):  # refused: exact text only
+        broken = copy.deepcopy(doc)
+        broken["data_machine"][path[0]][path[1]][path[2]] = wrong
+        assert not jsonschema.Draft202012Validator(schema).is_valid(broken), path
     assert doc["ok"] is True and doc["spec"]["machine"] == m.name
     data = doc["data_machine"]
     assert data["step_s"] == "0.1"

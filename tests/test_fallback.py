@@ -191,7 +191,7 @@ def test_the_evidence_names_the_states_the_initial_one_and_the_fallback(tmp_path
     passed = [CheckOutcome(n, True, "passed") for n in ("up-to-date", *CHECKS)]
     loop = {"status": "undeveloped", "detail": "no closed-loop runs"}
     doc = document(Evidence(spec, check_all(spec.machine), passed, tmp_path, [], "now", loop=loop))
-    schema = json.loads((ROOT / "tests/schemas/evidence.schema.json").read_text())
+    schema = json.loads((ROOT / "src/mlca_verify/schemas/evidence-1.schema.json").read_text())
     jsonschema.validate(doc["spec"], schema["properties"]["spec"])
     assert doc["spec"]["states"] == list(spec.machine.states) and doc["spec"]["initial"] == "CARS_GREEN"
     assert doc["spec"]["fallback"] == "ALL_RED_OUT" and 'ALL_RED_OUT [xlabel="fallback"]' in doc["spec"]["dot"]

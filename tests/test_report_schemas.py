@@ -284,22 +284,3 @@ def test_an_evidence_bundle_validates_and_the_schema_refuses_a_broken_one(bundle
 
     breaks = (no_argument, claim_node, undeveloped_with_runs, wp_goals_as_text, timed_test_coverage, not_a_time)
     refused("evidence", doc, *breaks)
-
-
-@pytest.mark.slow
-@pytest.mark.usefixtures("at_root")
-def test_the_evidence_of_a_machine_with_data_and_lemmas_validates(tmp_path: Path) -> None:
-    """MLCA-T: its params, signals, variables, definitions, outputs and assumptions, and the lemmas' section."""
-    assert main(["evidence", MLCA_T, "--out", str(tmp_path / "out"), "--no-tests"]) == 0
-    doc = json.loads((tmp_path / "out" / "evidence.json").read_text(encoding="utf-8"))
-    assert doc["data_machine"]["params"] and doc["physical_safety"]["lemmas"]
-
-    def number_as_float(d: Doc) -> None:
-        """a param's default as a float, where the bundle writes it exactly as text"""
-        d["data_machine"]["params"][0]["default"] = 1.5
-
-    def float_type(d: Doc) -> None:
-        """a type the spec language has not"""
-        d["data_machine"]["signals"][0]["type"] = "float"
-
-    refused("evidence", doc, number_as_float, float_type)
