@@ -15,6 +15,7 @@ consecutive sizes. Where two things are compared, the times are medians of inter
 from __future__ import annotations
 
 import argparse
+import atexit
 import random
 import statistics
 import subprocess
@@ -28,6 +29,7 @@ from pathlib import Path
 
 import z3
 
+from figures import write_block  # run as a script: bench/ is on the path
 from mlca_verify.codegen import generate
 from mlca_verify.errors import Loc
 from mlca_verify.logic import check_all
@@ -95,16 +97,23 @@ def shipped(reps: int) -> None:
     check_all(machines[0])  # warm z3 up
     print("shipped specs                in process (s)")
     total = 0.0
+    best = []
     for path, machine in zip(SHIPPED, machines, strict=True):
         seconds = min(timed(lambda m=machine: check_all(m)) for _ in range(reps))
         total += seconds
+        best.append((path, seconds))
         print(f"  {path:26} {seconds:8.3f}")
     print(f"  {f'all {len(SHIPPED)}':26} {total:8.3f}")
+    rows = [f"| `{path}`, `check_all` in process, best of {reps} | {seconds:.3f} s |" for path, seconds in best]
     walls = [timed(lambda: [check_all(m) for m in machines]) for _ in range(reps)]
     verdict = "met" if statistics.median(walls) < 1.0 else "missed"
     print(
         f"  one Python process, one `check_all` per spec, wall time: median {statistics.median(walls):.3f} s"
         f" of {reps} (best {min(walls):.3f}, worst {max(walls):.3f}); 1 s target {verdict}"
+    )
+    rows.append(
+        f"| all {len(SHIPPED)}, one `check_all` each in one process | median {statistics.median(walls):.3f} s of"
+        f" {reps} (best {min(walls):.3f} s, worst {max(walls):.3f} s) |"
     )
     cli = ROOT / ".venv" / "bin" / "mlca-verify"
     command = [str(cli), "check", *SHIPPED, "--quiet"]
@@ -114,6 +123,12 @@ def shipped(reps: int) -> None:
         f" worst {max(walls):.3f} s"
     )
     print("  target: under 1 s of wall time\n")
+    verdict = "met" if min(walls) < 1.0 else "**missed**"
+    rows.append(
+        f"| one `mlca-verify check` process on all {len(SHIPPED)} (start-up included) | best {min(walls):.3f} s,"
+        f" worst {max(walls):.3f} s of {reps}: the 1 s target is {verdict} |"
+    )
+    DOCS["check-shipped"] = ["| | wall time |", "|---|---|", *rows]
 
 
 def interleaved(reps: int, *fns: Callable[[], object]) -> list[float]:
@@ -189,6 +204,18 @@ def mlca_t_sweep(reps: int, sample: int) -> None:
         f" ({'measured' if len(values) == every else 'extrapolated'}); one value alone costs"
         f" {sweep / len(values) / para:.2f}x the parametric proof on average\n"
     )
+    unknown = [f"{r.prop} at T_MIN = {v}" for v in values for r in last[str(v)] if r.verdict == "unknown"]
+    how = "measured" if len(values) == every else "extrapolated"
+    DOCS.setdefault("check-data", DATA_HEAD.copy()).extend([
+        f"| MLCA-T, its {len(para_props)} properties for every T_MIN in {low}..{high} | one parametric proof |"
+        f" {para_prop_s:.2f} s ({para:.2f} s with the built-in checks and the lemmas) |",
+        f"| | one proof per value, {len(values)} values of {every} timed ({', '.join(map(str, values))}), the mean"
+        f" times {every} | {estimate:.0f} s {how}, about {estimate / para:,.0f} times the parametric proof;"
+        f" unknown: {', '.join(unknown) or 'none'} |",
+    ])  # fmt: skip
+
+
+DATA_HEAD = ["| | | time |", "|---|---|---|"]
 
 
 COUNTER = 999_999
@@ -274,6 +301,12 @@ def counter(reps: int) -> None:
             f" {explicit / symbolic:.0f}x the symbolic proof)"
         )
     print()
+    bare = "over 60 s" if seconds is None else f"{explicit:.2f} s"
+    DOCS.setdefault("check-data", DATA_HEAD.copy()).extend([
+        f"| a counter of {COUNTER + 1:,} values (two states, a tick input, two invariants) | symbolic, every check |"
+        f" {symbolic:.2f} s |",
+        f"| | explicit breadth-first search of its {reached:,} states, in plain Python in the benchmark | {bare} |",
+    ])  # fmt: skip
 
 
 GREEN = 50  # steps of minimum green: 5 s at 10 Hz
@@ -418,6 +451,13 @@ def crossing(reps: int) -> None:
     )
     print("  (expanded: minimum green holds by construction, a boolean invariant cannot state it without prev())")
     print()
+    expanded = len(specs["expanded"].machine.states)
+    DOCS.setdefault("check-data", DATA_HEAD.copy()).extend([
+        f"| a pedestrian crossing with a {GREEN / 10:g} s minimum green at 10 Hz | with a timer:"
+        f" {len(timed_machine.states)} states, every check | {seconds['timed']:.2f} s |",
+        f"| | expanded into states: {expanded} states | {seconds['expanded']:.3f} s; {code_lines:,} generated lines in"
+        f" {len(files)} files |",
+    ])  # fmt: skip
 
 
 MACHINES = ROOT / "tests" / "machines"
@@ -526,11 +566,13 @@ def with_invariants(n: int) -> Machine:
 def sharing(reps: int) -> None:
     """One unrolling per system, shared by all of a machine's queries, against one per query."""
     print("shared unrollings: whole check (s), median of interleaved pairs   shared  one per query  ratio")
+    rows = ["| spec, whole check | shared | one per query | ratio |", "|---|---|---|---|"]
     for path in SHARING:
         machine = load_spec(ROOT / path).machine
         same = [r.verdict for r in checked(machine, True)] == [r.verdict for r in checked(machine, False)]
         a, b = interleaved(reps, lambda m=machine: checked(m, True), lambda m=machine: checked(m, False))
         print(f"  {path:56} {a:7.3f}  {b:13.3f}  {a / b:5.2f}{'' if same else '  VERDICTS DIFFER'}")
+        rows.append(f"| `{path}` | {a:.2f} s | {b:.2f} s | {a / b:.2f} |")
     print("  the watchdog with N more invariants        shared  one per query  per added property (shared, one each)")
     base: tuple[float, float] | None = None
     for n in (0, 10, 20, 40):
@@ -541,7 +583,32 @@ def sharing(reps: int) -> None:
             print(f"  {n:4} more{'':38} {a:7.3f}  {b:13.3f}")
         else:
             print(f"  {n:4} more{'':38} {a:7.3f}  {b:13.3f}  {(a - base[0]) / n:.4f}, {(b - base[1]) / n:.4f}")
+            added = ((a - base[0]) / n * 1000, (b - base[1]) / n * 1000)
+            rows.append(
+                f"| the watchdog with {n} more invariants, each added one | {added[0]:.0f} ms | {added[1]:.0f} ms | |"
+            )
+    DOCS["check-sharing"] = rows
     print()
+
+
+SECTIONS: dict[str, Callable[[argparse.Namespace], None]] = {
+    "shipped": lambda a: shipped(a.reps),
+    "mlca-t": lambda a: mlca_t_sweep(a.reps, a.t_min_sample),
+    "counter": lambda a: counter(a.reps),
+    "crossing": lambda a: crossing(a.reps),
+    "timers": lambda a: timers(a.reps),
+    "resources": lambda a: resources(a.reps),
+    "sharing": lambda a: sharing(a.reps),
+    "corpora": lambda a: corpora(a.reps),
+    "growth": lambda a: growth(a.quick),
+}
+DOCS: dict[str, list[str]] = {}  # the tables measured, by block of docs/explanation/performance.md (`--write-docs`)
+
+
+def write_docs(by: str) -> None:
+    """Write each table measured into its block (those not measured in this run are left as they are)."""
+    for name, lines in DOCS.items():
+        write_block(name, lines, by)
 
 
 KIND2_MEDIAN_S = 0.77  # per model, start-up included, on the FMCAD'08 Lustre set: a quoted figure, not re-measured
@@ -552,6 +619,8 @@ def corpora(reps: int) -> None:
     the median time per property (in process) and per model (a fresh `mlca-verify check` process)."""
     cli = ROOT / ".venv" / "bin" / "mlca-verify"
     print("corpora                          models  properties  median ms/property  median s/model (process)")
+    rows = ["| corpus | models | median per property (every check) | median per model, a fresh `check` process |"]
+    rows.append("|---|---|---|---|")
     for name, folder in (("public models (tests/public)", "tests/public"), ("own corpus (tests/machines)", MACHINES)):
         files = sorted((ROOT / folder).glob("*.toml"))
         per_property = [r.seconds for f in files for r in check_all(load_spec(f).machine)]
@@ -564,12 +633,17 @@ def corpora(reps: int) -> None:
             f"  {name:30} {len(files):6} {len(per_property):11} {statistics.median(per_property) * 1000:19.2f}"
             f"  {statistics.median(per_model):8.3f}"
         )
+        ms = statistics.median(per_property) * 1000
+        shown = Path(folder).relative_to(ROOT) if Path(folder).is_absolute() else folder
+        rows.append(f"| `{shown}/` | {len(files)} | {ms:.2f} ms | {statistics.median(per_model):.2f} s |")
+    DOCS["check-corpora"] = rows
     print(f"  targets: under 0.1 s per property; per model at most Kind 2's median, {KIND2_MEDIAN_S} s\n")
 
 
 def growth(quick: bool) -> None:
     sizes = [10, 50, 100, 250, 500] if quick else [10, 50, 100, 250, 500, 1000, 2000]
     print("synthetic machines  states  inputs  transitions  z3 queries  seconds  x previous size  s per state")
+    times: dict[tuple[int, int], tuple[int, int, float]] = {}
     for n_inputs in (4, 8, 12):
         previous = None
         for n in sizes:
@@ -588,7 +662,17 @@ def growth(quick: bool) -> None:
                 f"  {seconds:7.2f}  {ratio:>15}  {seconds / n:11.4f}"
             )
             previous = seconds
+            times[n, n_inputs] = (len(machine.transitions), checker[0].solver.queries, seconds)
             sys.stdout.flush()
+    rows = [
+        "| states | transitions | z3 queries (4 inputs) | 4 inputs | 8 inputs | 12 inputs |",
+        "|---|---|---|---|---|---|",
+    ]
+    for n in sizes:
+        transitions, queries, _ = times[n, 4]
+        cells = " | ".join(f"{times[n, k][2]:.2f} s" for k in (4, 8, 12))
+        rows.append(f"| {n:,} | {transitions:,} | {queries:,} | {cells} |")
+    DOCS["check-growth"] = rows
 
 
 if __name__ == "__main__":
@@ -599,25 +683,18 @@ if __name__ == "__main__":
     parser.add_argument(
         "--sharing", action="store_true", help="only the shared unrollings and the corpora's times per property"
     )
+    parser.add_argument("--write-docs", action="store_true", help="write the tables measured into their docs page")
+    parser.add_argument(
+        "--only",
+        default=",".join(SECTIONS),
+        help=f"comma-separated sections to run (default all: {', '.join(SECTIONS)})",
+    )
     args = parser.parse_args()
-    if args.sharing:
-        sharing(args.reps)
-        corpora(args.reps)
-        sys.exit(0)
-    shipped(args.reps)
-    sys.stdout.flush()
-    mlca_t_sweep(args.reps, args.t_min_sample)
-    sys.stdout.flush()
-    counter(args.reps)
-    sys.stdout.flush()
-    crossing(args.reps)
-    sys.stdout.flush()
-    timers(args.reps)
-    sys.stdout.flush()
-    resources(args.reps)
-    sys.stdout.flush()
-    sharing(args.reps)
-    sys.stdout.flush()
-    corpora(args.reps)
-    sys.stdout.flush()
-    growth(args.quick)
+    if args.write_docs:  # at exit, an interrupted run included: what was measured is written
+        atexit.register(write_docs, " ".join(["bench/bench_check.py", *sys.argv[1:]]))
+    wanted = ["sharing", "corpora"] if args.sharing else args.only.split(",")
+    for name in wanted:
+        if name not in SECTIONS:
+            sys.exit(f"error: no section {name!r} ({', '.join(SECTIONS)})")
+        SECTIONS[name](args)
+        sys.stdout.flush()

@@ -13,19 +13,27 @@ Run on demand:
   and 3 AVs, on SEEDS seeds, JOBS runs at once; RUNS such runs of every configuration, shared perfectly by JOBS
   workers, is the least time any harness could take for the matrix here. `--scenario FILE` runs the matrix and
   its floor on another scenario.
+- `.venv/bin/python bench/bench_matrix.py --from-runs docs/comparison/runs.csv [--write-docs]`: the mean time per
+  run of each controller, from the wall times a sweep recorded (its runs.csv), written into
+  docs/reference/generated-code.md with `--write-docs` (see figures.py).
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import multiprocessing as mp
 import statistics
+import sys
 import tempfile
 import time
 from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from figures import ROOT, write_block
 from sim_check.cli import main as sim_main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
 from sim_check.db import ResultsDB
@@ -126,6 +134,35 @@ def _wall_times(db: Path) -> dict[tuple[str, int], list[float]]:
     return walls
 
 
+def from_runs(path: Path, write_docs: bool) -> None:
+    """The mean wall time per run of each controller, 1 and 3 AVs, from a sweep's recorded runs (runs.csv)."""
+    walls: dict[tuple[str, int], list[float]] = defaultdict(list)
+    with path.open(encoding="utf-8", newline="") as f:
+        for row in csv.DictReader(f):
+            if row["status"] == "done":
+                walls[(row["controller"], int(row["avs"]))].append(float(row["wall_s"]))
+    controllers = [c for c in PAPER_MATRIX if (c, 1) in walls or (c, 3) in walls]
+    lines = ["| controller | 1 AV | 3 AVs |", "|---|---|---|"]
+    for c in controllers:
+        cells = [f"{statistics.mean(walls[c, n]):.2f}" if walls.get((c, n)) else "-" for n in (1, 3)]
+        lines.append(f"| `{c}` | {' | '.join(cells)} |")
+        print(f"  {c:12} " + "  ".join(f"{cell:>6}" for cell in cells))
+    total = sum(t for times in walls.values() for t in times)
+    runs = sum(len(times) for times in walls.values())
+    lines += ["", f"Mean seconds per run on one worker, over the {runs:,} runs recorded in `{_shown(path)}`; the sum"
+              f" of their run times is {total / 60:.1f} minutes."]  # fmt: skip
+    print(lines[-1])
+    if write_docs:
+        page = ROOT / "docs" / "reference" / "generated-code.md"
+        write_block("matrix", lines, f"bench/bench_matrix.py --from-runs {_shown(path)} --write-docs", page)
+
+
+def _shown(path: Path) -> str:
+    """`path` relative to the project, as the docs name it."""
+    resolved = path.resolve()
+    return str(resolved.relative_to(ROOT)) if resolved.is_relative_to(ROOT) else str(path)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--runs", type=int, default=100)
@@ -135,8 +172,12 @@ def main() -> None:
     parser.add_argument("--floor", action="store_true", help="the matrix's floor: plain SUMO per configuration")
     parser.add_argument("--seeds", type=int, default=2, help="seeds per configuration for --floor")
     parser.add_argument("--scenario", default="", help="scenario file of the matrix and its floor (default: paper)")
+    parser.add_argument("--from-runs", type=Path, metavar="CSV", help="the mean time per run from a sweep's runs.csv")
+    parser.add_argument("--write-docs", action="store_true", help="with --from-runs: write the table into its page")
     args = parser.parse_args()
-    if args.floor:
+    if args.from_runs:
+        from_runs(args.from_runs, args.write_docs)
+    elif args.floor:
         floor(args.runs, args.jobs, args.seeds, args.scenario)
     elif args.lateral:
         lateral(args.runs, args.jobs)

@@ -19,6 +19,8 @@ whatever else the machine does; the start of Python and SUMO, counted alone, is 
 the whole run and inside SUMO's step. It separates the work the closed loop adds from the time that work costs:
 the loop between two SUMO steps evicts part of SUMO's code and data from the cache, which SUMO's next step reads
 back.
+
+`--write-docs` writes what it measured into docs/reference/generated-code.md (see figures.py).
 """
 
 from __future__ import annotations
@@ -36,6 +38,9 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from figures import ROOT, write_block
 from sim_check.controllers import load_controller
 from sim_check.db import ResultsDB
 from sim_check.runner import SIM_LIMIT_S, run_once, run_plain
@@ -151,20 +156,31 @@ def _events(annotated: str, name: str) -> list[int]:
     return [0] * len(EVENTS)
 
 
-def instructions(limit_s: float) -> None:
+def instructions(limit_s: float) -> list[str]:
+    """Count both sides' instructions and L2 misses; print them, and return them as the docs write them."""
     cache = l2_cache()
     with tempfile.TemporaryDirectory() as folder, ThreadPoolExecutor(2) as pool:
         runs = {mode: pool.submit(_counts, mode, limit_s, cache, Path(folder)) for mode in ("start", "plain", "closed")}
         counts = {mode: run.result() for mode, run in runs.items()}
     print(f"over the first {limit_s:.0f} simulated s (callgrind, the start subtracted; L2 misses of a simulated "
           f"{cache.split(',')[0]}-byte {cache.split(',')[1]}-way L2, this core's):")  # fmt: skip
+    lines = [
+        f"Over the first {limit_s:.0f} simulated seconds (callgrind, the start subtracted; a simulated"
+        f" {int(cache.split(',')[0]) // 1024} KiB, {cache.split(',')[1]}-way L2):",
+        "",
+        "| | plain SUMO | closed loop | ratio | inside SUMO's step: plain | closed loop | ratio |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for event, label in (("Ir", "instructions"), ("L2", "L2 misses")):
         plain = [counts["plain"][event][k] - counts["start"][event][k] for k in (0, 1)]
         closed = [counts["closed"][event][k] - counts["start"][event][k] for k in (0, 1)]
         print(f"  {label:12}  plain SUMO {plain[0]:>14,}  closed loop {closed[0]:>14,}  "
               f"ratio {closed[0] / plain[0]:.3f};  inside SUMO's step: plain {plain[1]:>14,}  "
               f"closed {closed[1]:>14,}  ratio {closed[1] / plain[1]:.3f}")  # fmt: skip
+        lines.append(f"| {label} | {plain[0]:,} | {closed[0]:,} | {closed[0] / plain[0]:.3f} | {plain[1]:,} |"
+                     f" {closed[1]:,} | {closed[1] / plain[1]:.3f} |")  # fmt: skip
     print()
+    return lines
 
 
 def main() -> None:
@@ -176,10 +192,21 @@ def main() -> None:
         "--instructions", type=float, metavar="SECONDS", help="also count instructions and L2 misses (valgrind)"
     )
     parser.add_argument("--child", choices=("start", "plain", "closed"), help=argparse.SUPPRESS)
+    parser.add_argument("--write-docs", action="store_true", help="write what it measured into its docs page")
     args = parser.parse_args()
     if args.child:
         child(args.child, args.instructions)
         return
+    lines = measured(args)
+    if args.write_docs:
+        flags = " ".join(a for a in sys.argv[1:] if a != "--write-docs")
+        page = ROOT / "docs" / "reference" / "generated-code.md"
+        write_block("sim", lines, f"bench/bench_sim.py {flags} --write-docs".replace("  ", " "), page)
+
+
+def measured(args: argparse.Namespace) -> list[str]:
+    """Run the measurements `args` ask for, print them, and return them as the docs write them."""
+    lines: list[str] = []
     with tempfile.TemporaryDirectory() as folder:
         work = Path(folder)
         plain(work, 0.0)  # the network is built once, outside the timings
@@ -196,10 +223,12 @@ def main() -> None:
         print(f"one 20 km run of the paper's scenario, seed 0, {args.repeat} interleaved pairs:")
         print(f"  {'':24} {'best wall s':>11} {'median s':>9} {'steps':>7} {'vehicle-steps':>14} "
               f"{'vehicle-steps/s':>16}")  # fmt: skip
+        lines += ["| | best wall s | median s | steps | vehicle-steps/s |", "|---|---|---|---|---|"]
         for label, samples in rows.items():
             wall, steps, vsteps = min(samples)
             median = statistics.median(s[0] for s in samples)
             print(f"  {label:24} {wall:11.2f} {median:9.2f} {steps:7d} {vsteps:14d} {vsteps / wall:16.0f}")
+            lines.append(f"| {label} | {wall:.2f} | {median:.2f} | {steps:,} | {vsteps / wall:,.0f} |")
         pairs = [c[0] / p[0] for p, c in zip(rows[labels[0]], rows[labels[1]], strict=True)]
         best_plain = min(s[0] for s in rows[labels[0]])
         print(f"  ratio closed loop / plain SUMO: median of the pairs {statistics.median(pairs):.2f} "
@@ -212,10 +241,18 @@ def main() -> None:
         print(f"  inside SUMO's step, median of the pairs' ratios: {statistics.median(inside):.3f}; around the "
               f"steps (Python), median: plain {around[labels[0]]:.3f} s, "
               f"closed loop {around[labels[1]]:.3f} s\n")  # fmt: skip
+        lines += [
+            "",
+            f"The median of the {args.repeat} pairs' ratios closed loop / plain SUMO is"
+            f" **{statistics.median(pairs):.2f}** ({min(pairs):.2f} to {max(pairs):.2f}; target: at most 1.05)."
+            f" Inside SUMO's step the closed loop's run takes {statistics.median(inside):.3f} times as long (median of"
+            f" the pairs); around the steps, plain SUMO spends {around[labels[0]]:.3f} s of Python a run and the"
+            f" closed loop {around[labels[1]]:.3f} s.",
+        ]
         if args.instructions is not None:
-            instructions(args.instructions)
+            lines += ["", *instructions(args.instructions)]
         if args.runs < 1:
-            return
+            return lines
         start = time.perf_counter()
         with ResultsDB.open_for_writing(work / "bench.sqlite") as database:
             sweep = Sweep(load_scenario(), database, args.jobs, timeout_s=600)
@@ -236,6 +273,13 @@ def main() -> None:
             f"  {args.runs} runs of plain SUMO at the best single time above ({best_plain:.2f} s), perfectly "
             f"shared: {best_plain * args.runs / args.jobs:.1f} s; the paper: 6.5 hours for its 100 runs"
         )
+        lines += [
+            "",
+            f"{args.runs} runs on {args.jobs} workers: the sweep (results stored) took {wall:.1f} s ({failed} failed),"
+            f" and plain SUMO the same runs on {args.jobs} worker processes {plain_wall:.1f} s: ratio"
+            f" **{wall / plain_wall:.2f}** (target: at most 1.15).",
+        ]
+    return lines
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ flat. Wall times are of one run on a noisy 2-core machine; the goal counts are e
 
 Then, side by side in one run, Alg. 1 and the repair: the step generated today against the boolean pipeline's
 (bench/reference/boolean/, its last version), each proved with the same flags; the median of interleaved pairs.
+`--write-docs` writes both tables into docs/explanation/performance.md (see figures.py).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
 
 from bench_check import GREEN, crossing_expanded, crossing_timed  # noqa: E402
+from figures import write_block  # noqa: E402
 from mlca_verify.codegen import generate  # noqa: E402
 from mlca_verify.conformance.c_tools import wp_file  # noqa: E402
 from mlca_verify.conformance.generated_code import WP_FLAGS  # noqa: E402
@@ -78,7 +80,8 @@ def chain(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -> None:
+def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -> str:
+    """Prove one spec's generated C; print its row and return it as a row of the docs' table."""
     if spec is None:
         spec = work / f"{name}.toml"
         spec.write_text(text or "", encoding="utf-8")
@@ -106,6 +109,8 @@ def measure(name: str, text: str | None, work: Path, spec: Path | None = None) -
         f" {goals / size:>9.2f} {seconds / size:>9.3f}",
         flush=True,
     )
+    cells = (f"`{name}`", kind, size, goals, proved, f"{seconds:.1f}", f"{goals / size:.2f}", f"{seconds / size:.3f}")
+    return "| " + " | ".join(str(c) for c in cells) + " |"
 
 
 def _proved_in(c_file: Path, work: Path) -> tuple[int, float]:
@@ -122,8 +127,10 @@ def _proved_in(c_file: Path, work: Path) -> tuple[int, float]:
     return int(data.get("goals", 0)), seconds
 
 
-def against_the_boolean_pipeline(work: Path, pairs: int) -> None:
-    """Today's generated C and the boolean pipeline's for the shipped boolean machines, proved alternately."""
+def against_the_boolean_pipeline(work: Path, pairs: int) -> list[str]:
+    """Today's generated C and the boolean pipeline's for the shipped boolean machines, proved alternately: the
+    rows of the docs' table."""
+    rows = []
     print(f"\nside by side, median of {pairs} interleaved pairs")
     print(f"{'spec':<14} {'goals':>6} {'wp (s)':>8} {'old goals':>10} {'old wp (s)':>11} {'time ratio':>11}")
     for spec in ("mlca", "mlca_r"):
@@ -137,11 +144,16 @@ def against_the_boolean_pipeline(work: Path, pairs: int) -> None:
         now_s = statistics.median(a[1] for a, _ in runs)
         old_s = statistics.median(b[1] for _, b in runs)
         print(f"{spec:<14} {runs[0][0][0]:>6} {now_s:>8.1f} {runs[0][1][0]:>10} {old_s:>11.1f} {now_s / old_s:>11.2f}")
+        goals, old_goals = runs[0][0][0], runs[0][1][0]
+        cells = (f"`spec/{spec}.toml`", goals, f"{now_s:.1f}", old_goals, f"{old_s:.1f}", f"{now_s / old_s:.2f}")
+        rows.append("| " + " | ".join(str(c) for c in cells) + " |")
+    return rows
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true", help="smaller families")
+    parser.add_argument("--write-docs", action="store_true", help="write both tables into their docs page")
     args = parser.parse_args()
     expanded = (3, 6, 12) if args.quick else (3, 6, 12, 24, 48)
     chains = (2, 4, 8) if args.quick else (2, 4, 8, 16)
@@ -149,13 +161,19 @@ def main() -> None:
     print(f"{head[0]:<28} " + " ".join(f"{h:>{w}}" for h, w in zip(head[1:], (4, 5, 6, 6, 8, 9, 9), strict=True)))
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        for n in expanded:
-            measure(f"crossing_expanded_{n}", crossing_expanded(n), work)
-        for n in chains:
-            measure(f"chain_{n}", chain(n), work)
-        measure(f"crossing_timed_{GREEN}", crossing_timed(GREEN), work)
-        measure("mlca_t", None, work, ROOT / "spec" / "mlca_t.toml")
-        against_the_boolean_pipeline(work, 1 if args.quick else 3)
+        rows = [measure(f"crossing_expanded_{n}", crossing_expanded(n), work) for n in expanded]
+        rows += [measure(f"chain_{n}", chain(n), work) for n in chains]
+        rows.append(measure(f"crossing_timed_{GREEN}", crossing_timed(GREEN), work))
+        rows.append(measure("mlca_t", None, work, ROOT / "spec" / "mlca_t.toml"))
+        pairs = against_the_boolean_pipeline(work, 1 if args.quick else 3)
+    if args.write_docs:
+        by = f"bench/bench_wp.py{' --quick' if args.quick else ''} --write-docs"
+        write_block("wp-size", [SIZE_HEAD, "|---|---|---|---|---|---|---|---|", *rows], by)
+        write_block("wp-boolean", [PAIR_HEAD, "|---|---|---|---|---|---|", *pairs], by)
+
+
+SIZE_HEAD = "| spec | kind | size | goals | proved | WP (s) | goals / size | s / size |"
+PAIR_HEAD = "| spec | goals | WP (s) | boolean pipeline: goals | WP (s) | time ratio |"
 
 
 if __name__ == "__main__":
