@@ -122,11 +122,15 @@ def test_scxml_of_a_machine_with_data_runs_in_scion_like_the_generated_code(spec
     ]
     for sequence, steps in zip(sequences, scion(path, sequences, data=True), strict=True):
         c = code.Context()
+        kept = (code.Observers(),) if hasattr(code, "Observers") else ()  # an observer: the monitor keeps it
         assert steps[0]["state"] == [m.initial] and steps[0]["v"] == {v.name: int(v.initial) for v in m.variables}
         for inputs, seen in zip(sequence, steps[1:], strict=True):
-            out = code.step(c, code.Inputs(**inputs))
+            before, i = code.Context(**vars(c)), code.Inputs(**inputs)
+            out = code.step(c, i)
+            code.monitor(before, c, i, code.DEFAULT_PARAMS, out, *kept)
+            holder = {v.name: kept[0] if v.observer else c for v in m.variables}
             assert seen["state"] == [code.State(c.mode).name], (inputs, seen)
-            assert seen["v"] == {v.name: getattr(c, v.name) for v in m.variables}, (inputs, seen)
+            assert seen["v"] == {v.name: getattr(holder[v.name], v.name) for v in m.variables}, (inputs, seen)
             assert seen["o"] == {o.name: getattr(out, o.name) for o in m.outputs}, (inputs, seen)
 
 
