@@ -1,10 +1,11 @@
 """A proof must hold for the code that runs: the engine's verdicts on random machines with data against runs of the
-generated Python (binary64 reals, IEEE division). Every invariant and range check the engine proves without a
+generated Python (binary64 or binary32 reals, IEEE division). Every invariant and range check the engine proves without a
 caveat holds at every step of random runs of the code at the params' defaults, and every counterexample the engine
 reports without a caveat, replayed in the code, fails at its last step. The machines are those of
 test_data_vs_bruteforce (int counters, an int signal read by definitions, params), without their environment
 assumptions (random runs do not keep to them), and machines with a real timer that counts in decimal steps and
-guards that compare it with decimals (the classes where reals and binary64 part)."""
+guards that compare it with decimals (the classes where reals and binary64 part), in either format: a verdict the
+engine carries over to binary32 must hold for the generated Python's binary32 too."""
 
 from __future__ import annotations
 
@@ -41,7 +42,9 @@ _COUNT = itertools.count()
 
 @st.composite
 def real_timers(draw: st.DrawFn) -> str:
-    """A real timer counting in a decimal step, and guards comparing it with decimals (exact or not in binary64)."""
+    """A real timer counting in a decimal step, and guards comparing it with decimals (exact or not in binary64 or
+    binary32)."""
+    reals = draw(st.sampled_from(["binary64", "binary32"]))
     step = draw(st.sampled_from(["0.1", "0.2", "0.25", "0.3", "0.5", "0.7"]))
     low, high = sorted(
         draw(st.lists(st.sampled_from(["0.2", "0.25", "0.3", "0.5", "0.6", "0.9", "1.0"]), min_size=2, max_size=2))
@@ -53,6 +56,7 @@ def real_timers(draw: st.DrawFn) -> str:
 name = "R"
 initial = "A"
 states = ["A", "BAD"]
+reals = "{reals}"
 [inputs]
 go = {{ doc = "go" }}
 [variables]

@@ -40,6 +40,7 @@ def test_the_corpus_holds_the_machines() -> None:
         "handshake_1khz",
         "infusion_1hz",
         "level_crossing_10hz",
+        "motor_limiter_1khz",
         "pump_debounce_1khz",
         "seatbelt_10hz",
         "tank_fill_1hz",

@@ -83,6 +83,7 @@ DATA_MACHINES = [
     "tests/machines/watchdog_100hz.toml",
     "tests/machines/thermostat_1hz.toml",
     "tests/machines/charger_1hz.toml",
+    "tests/machines/motor_limiter_1khz.toml",
     "tests/fixtures/conveyor_stop.toml",
 ]
 

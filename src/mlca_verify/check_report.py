@@ -181,7 +181,13 @@ def point_text(cx: Counterexample, indent: str = "    ") -> str:
 
 
 def results_text(
-    spec_path: str, machine: str, results: Sequence[Result], inputs: Sequence[str], assumptions: Sequence[str] = ()
+    spec_path: str,
+    machine: str,
+    results: Sequence[Result],
+    inputs: Sequence[str],
+    assumptions: Sequence[str] = (),
+    *,
+    reals: str = "binary64",
 ) -> str:
     rows = []
     for r in results:
@@ -202,7 +208,7 @@ def results_text(
             parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
     caveats = [r for r in results if r.caveat]
     if caveats:
-        parts.append("\n  (reals): decided over the reals, not shown for the generated code's binary64:")
+        parts.append(f"\n  (reals): decided over the reals, not shown for the generated code's {reals}:")
         parts += [f"    {r.prop}: {terminal(_clip(r.caveat, 200))}" for r in caveats]
     return "\n".join(parts)
 

@@ -27,6 +27,7 @@ RULES = {
     "division": "A divisor can be zero where its value is used.",
     "overflow": "An int value can leave the generated code's 64 bits.",
     "binary64": "A verdict decided over the reals is not shown to hold for the code's binary64 arithmetic.",
+    "binary32": "A verdict decided over the reals is not shown to hold for the code's binary32 arithmetic.",
     "lemma": "A declared lemma over the definitions fails for some values in range.",
     "citation": "A spec element cites no source (check --require-cites).",
 }
@@ -118,7 +119,7 @@ def sarif(checked: Sequence[Checked], uncited_elements: Sequence[tuple[str, Loc,
                 continue
             loc = element_loc(machine, r.prop)
             entry: dict[str, Any] = {
-                "ruleId": r.kind if r.verdict != "holds" else "binary64",
+                "ruleId": r.kind if r.verdict != "holds" else machine.reals,
                 "level": "error" if not r.ok else "note",
                 "message": {"text": _message(r)},
                 "locations": [

@@ -237,7 +237,11 @@ def cmd_check(args: argparse.Namespace) -> int:
         checked.append((spec, results))
         if not args.quiet:
             assumed = [f"{a.id}: {show(a.expr)}" for a in spec.machine.assumptions]
-            say(check_report.results_text(spec.path, spec.machine.name, results, spec.machine.input_names, assumed))
+            say(
+                check_report.results_text(
+                    spec.path, spec.machine.name, results, spec.machine.input_names, assumed, reals=spec.machine.reals
+                )
+            )
         say(f"{spec.path}: {check_report.summary_text(results)}\n")
     if args.json:
         write_json(args.json, check_report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))

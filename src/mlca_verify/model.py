@@ -13,6 +13,7 @@ from fractions import Fraction
 from typing import Literal, TypeAlias
 
 from mlca_verify.errors import Loc
+from mlca_verify.floats import Reals
 
 Semantics = Literal["first-match", "any-enabled"]
 Otherwise = Literal["stay", "undefined"]
@@ -502,6 +503,7 @@ class Machine:
     lemmas: tuple[Lemma, ...] = ()
     data: bool = False  # declared data, or uses an expression a machine without data cannot (arithmetic, prev)
     fallback: str = ""  # the state a context whose mode names no state restarts in ("": the initial state)
+    reals: Reals = "binary64"  # the IEEE 754 format the generated code computes reals in (see `floats`)
 
     @property
     def fallback_state(self) -> str:

@@ -539,9 +539,15 @@ def _spec_part() -> JsonObject:
             "states": _array({"type": "string"}, "Its states.", minItems=1),
             "initial": _string("Its initial state."),
             "fallback": _string("The state generated code restarts a corrupted context in."),
+            "reals": _string(
+                "The IEEE 754 format the generated code computes reals in (left out by bundles written before "
+                "binary32).",
+                enum=["binary64", "binary32"],
+            ),
             "dot": _string("Its diagram in Graphviz DOT."),
         },
         "The machine.",
+        optional=["reals"],
     )
 
 

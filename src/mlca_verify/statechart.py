@@ -8,7 +8,9 @@ their old values (all read before any is written), then the outputs over the sta
 `otherwise = "stay"` a last transition without a target or a condition does the same where none is enabled, so
 the variables move on in the state. A boolean definition that reads a signal takes its `if_invalid` value when
 one of its samples lies outside the signal's range (NaN does: every comparison with it is false). Arithmetic is
-ECMAScript's binary64, the generated code's.
+ECMAScript's binary64, the generated code's; for a machine whose reals are binary32, each real operation, sample,
+param and constant is rounded with `Math.fround`, as the code's `float` rounds it (an int that meets a real
+too).
 
 Spec text reaches the document only as escaped XML text and JSON strings: names are read through `["name"]`,
 states compared to JSON strings, definitions called by their number.
@@ -21,6 +23,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from mlca_verify.escape import xml_attribute, xml_comment, xml_markup, xml_text
+from mlca_verify.floats import FORMATS
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -37,7 +40,9 @@ from mlca_verify.model import (
     StateIn,
     Transition,
     Var,
+    name_types,
     show,
+    type_of,
 )
 
 SEND = "Send one event named 'step' per step, its data an object of "
@@ -47,8 +52,11 @@ class Undrawable(ValueError):
     """The machine holds what the format cannot carry; the message names the first such element."""
 
 
-def number(value: Fraction) -> str:
-    """A literal ECMAScript reads as the binary64 nearest `value` (the generated code's constant)."""
+def number(value: Fraction, reals: str = "binary64", real: bool = False) -> str:
+    """A literal ECMAScript reads as the generated code's constant: an int as written, a real the nearest value of
+    the machine's format (binary32's written as the binary64 that equals it)."""
+    if reals == "binary32" and (real or value.denominator != 1):
+        return repr(float(FORMATS["binary32"].nearest(value) or 0))
     return str(value.numerator) if value.denominator == 1 else repr(float(value))
 
 
@@ -79,6 +87,17 @@ class Script:
         self.variables = {v.name for v in m.variables}
         self.inputs = {i.name for i in m.inputs}
         self.ranges = {s.name: s.range for s in m.signals}
+        self.types = name_types(m)
+        self.single = m.reals == "binary32"  # each real rounded with Math.fround, as the code's float
+
+    def rounded(self, text: str) -> str:
+        """`text` as the code holds it: in binary32 rounded to a float (an int operand of a real too)."""
+        return f"Math.fround({text})" if self.single else text
+
+    def operand(self, expr: Expr, real: bool, at: At) -> str:
+        """An operand of an operation or a comparison; an int one meeting a real converted as the code does."""
+        text = self.js(expr, at)
+        return self.rounded(text) if real and type_of(expr, self.types) == "int" else text
 
     def name(self, name: str, at: At) -> str:
         key = json.dumps(name)
@@ -88,20 +107,27 @@ class Script:
             return f"p[{key}]"
         if name in self.variables:
             return f"v[{key}]"
-        if name in self.inputs or name in self.ranges:
+        if name in self.ranges:
+            return self.sample(name, at)
+        if name in self.inputs:
             return f"{at.event}[{key}]"
         raise Undrawable(f"SCXML is not drawn where a guard, an update or a definition reads the output {name}")
 
     def valid(self, signal: str, at: At) -> str:
         low, high = self.ranges[signal]
-        sample = f"{at.event}[{json.dumps(signal)}]"
-        return f"({sample} >= {number(low)} && {sample} <= {number(high)})"
+        sample = self.sample(signal, at)
+        real = self.types[signal] == "real"
+        return f"({sample} >= {number(low, self.m.reals, real)} && {sample} <= {number(high, self.m.reals, real)})"
+
+    def sample(self, signal: str, at: At) -> str:
+        text = f"{at.event}[{json.dumps(signal)}]"
+        return self.rounded(text) if self.types[signal] == "real" else text
 
     def js(self, expr: Expr, at: At) -> str:
         if isinstance(expr, Const):
             return "true" if expr.value else "false"
         if isinstance(expr, Num):
-            return number(expr.value)
+            return number(expr.value, self.m.reals, expr.real)
         if isinstance(expr, Var):
             return self.name(expr.name, at)
         if isinstance(expr, StateIn):
@@ -120,7 +146,9 @@ class Script:
             raise Undrawable("SCXML is not drawn where a guard, an update or a definition reads prev()")
         if isinstance(expr, Arith | Cmp):
             op = {"==": "===", "!=": "!=="}.get(expr.op, expr.op)
-            return f"({self.js(expr.left, at)} {op} {self.js(expr.right, at)})"
+            real = "real" in (type_of(expr.left, self.types), type_of(expr.right, self.types))
+            text = f"({self.operand(expr.left, real, at)} {op} {self.operand(expr.right, real, at)})"
+            return self.rounded(text) if isinstance(expr, Arith) and real else text
         assert isinstance(expr, BinOp)
         a, b = self.js(expr.left, at), self.js(expr.right, at)
         return {"and": f"({a} && {b})", "or": f"({a} || {b})", "->": f"(!{a} || {b})", "<->": f"({a} === {b})"}[expr.op]
@@ -130,7 +158,8 @@ class Script:
             arg = expr.args[0]
             assert isinstance(arg, Var)
             return self.valid(arg.name, at)
-        args = ", ".join(self.js(a, at) for a in expr.args)
+        real = type_of(expr, self.types) == "real"
+        args = ", ".join(self.operand(a, real, at) for a in expr.args)
         return {"min": f"Math.min({args})", "max": f"Math.max({args})", "abs": f"Math.abs({args})"}[expr.fn]
 
     def functions(self) -> list[str]:
@@ -181,8 +210,16 @@ def to_scxml_data(m: Machine, caption: str) -> str:
     """The SCXML document of `m`, a machine with data; `caption` is its first comment."""
     script = Script(m)
     functions = script.functions()
-    initial_v = "({" + ", ".join(f"{json.dumps(v.name)}: {number(v.initial)}" for v in m.variables) + "})"
-    params = "({" + ", ".join(f"{json.dumps(p.name)}: {number(p.default)}" for p in m.params) + "})"
+    initial_v = (
+        "({"
+        + ", ".join(f"{json.dumps(v.name)}: {number(v.initial, m.reals, v.type == 'real')}" for v in m.variables)
+        + "})"
+    )
+    params = (
+        "({"
+        + ", ".join(f"{json.dumps(p.name)}: {number(p.default, m.reals, p.type == 'real')}" for p in m.params)
+        + "})"
+    )
     carried = ", ".join([*m.input_names, *(s.name for s in m.signals)])
     out = [
         *head(m, caption, f"the inputs (booleans) and samples (numbers): {carried}"),

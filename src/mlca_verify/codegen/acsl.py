@@ -3,8 +3,8 @@
 The logic reads the same view as the code (`lower`), but as values: the context `c`, the inputs `i` and the
 params `p` are structs, not pointers. Booleans are boolean terms (read as predicates where one is due); ints are
 mathematical integers (WP proves that no C operation on them overflows, so the two agree); each operation on
-reals is rounded to binary64 with a cast, as the C computes it. A definition is a logic function of the
-context, inputs and params.
+reals is rounded to the code's format (binary64, or binary32) with a cast, as the C computes it. A definition is
+a logic function of the context, inputs and params.
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from fractions import Fraction
 
-from mlca_verify.codegen.lower import Lowering, Names, names_of, real_literal
+from mlca_verify.codegen.lower import BINARY64, Lowering, Names, names_of, real_literal
+from mlca_verify.floats import Format
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -103,12 +104,12 @@ class AcslLowering(Lowering):
         assert isinstance(e, Arith)
         kind = self.type_of(e)
         a, b = self.as_type(e.left, kind, prevs), self.as_type(e.right, kind, prevs)
-        return f"(double)({a} {e.op} {b})" if kind == "real" else f"({a} {e.op} {b})"
+        return f"({self.n.real})({a} {e.op} {b})" if kind == "real" else f"({a} {e.op} {b})"
 
     def as_type(self, e: Expr, kind: Type | None, prevs: Mapping[Prev, str] | None) -> str:
         text = self.go(e, prevs)
         if kind == "real" and self.type_of(e) == "int":
-            return self.real(Fraction(e.value)) if isinstance(e, Num) else f"(double){text}"
+            return self.real(Fraction(e.value), self.n.fmt) if isinstance(e, Num) else f"({self.n.real}){text}"
         return text
 
     def call(self, e: Call, prevs: Mapping[Prev, str] | None) -> str:
@@ -130,21 +131,24 @@ class AcslLowering(Lowering):
     def valid(self, signal: str) -> str:
         low, high = self.n.ranges[signal]
         kind = self.n.types[signal]
-        lo, hi = (self.real(v) if kind == "real" else str(int(v)) for v in (low, high))
+        lo, hi = (self.real(v, self.n.fmt) if kind == "real" else str(int(v)) for v in (low, high))
         x = self.name(signal)
         return f"(({lo} <= {x}) && ({x} <= {hi}))"
 
     def number(self, e: Num, negative: bool = False) -> str:
         value = -e.value if negative else e.value
         if e.real or value.denominator != 1:
-            return self.real(value)
+            return self.real(value, self.n.fmt)
         return str(int(value))
 
     @staticmethod
-    def real(value: Fraction) -> str:
-        """The binary64 the C reads for this constant: written as is when exact, else rounded with a cast."""
-        text = real_literal(value)
-        return text if Fraction(float(value)) == value else f"((double){text})"
+    def real(value: Fraction, fmt: Format = BINARY64) -> str:
+        """The value of the format the C reads for this constant: written as is when exact, else the decimal the
+        C writes rounded with a cast (a binary32 constant's decimal rounds to it as C's `f` suffix does)."""
+        if fmt.nearest(value) == value:
+            return _decimal(value)  # ACSL reads a decimal as the exact real: this value's own digits
+        text = real_literal(value, fmt).removesuffix("f")  # the real the C's decimal denotes; the cast rounds it
+        return f"(({fmt.ctype}){text})"
 
     def state(self, s: str) -> str:
         return f"{self.n.macro}_{s}"
@@ -168,3 +172,11 @@ class AcslLowering(Lowering):
         if self.n.types[name] == "bool":
             return f"(o.{name} != 0)"
         return f"o.{name}"
+
+
+def _decimal(value: Fraction) -> str:
+    """A dyadic rational's exact decimal expansion (a value of a binary format has one), with a point."""
+    twos = value.denominator.bit_length() - 1  # the denominator is 2^twos
+    digits = str(abs(value.numerator) * 5**twos).rjust(twos + 1, "0")
+    whole, fraction = digits[: len(digits) - twos], digits[len(digits) - twos :].rstrip("0")
+    return ("-" if value < 0 else "") + whole + "." + (fraction or "0")

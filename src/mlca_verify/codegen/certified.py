@@ -36,7 +36,14 @@ from mlca_verify.model import (
 )
 
 Sexpr = str | list["Sexpr"]
-COMPARES_BINARY64 = "it compares binary64 values, which z3 bit-blasts; the exhaustive checks cover it"
+
+
+def compares_floats(reals: str) -> str:
+    """Why an invariant that compares reals is not stated to WP, in the machine's format."""
+    return f"it compares {reals} values, which z3 bit-blasts; the exhaustive checks cover it"
+
+
+COMPARES_BINARY64 = compares_floats("binary64")
 _TOKEN = re.compile(r"\(|\)|[^\s()]+")
 MAX_TOKENS = 100_000
 
@@ -262,9 +269,9 @@ def needs_arithmetic(
 ) -> list[tuple[str, str]]:
     """Why each of the invariants `ids`, proved of the machine but not as WP sees it (`as_wp_sees`), is left out."""
     why = f"its proof needs the arithmetic of {', '.join(opaque)}, which compute on reals: WP sees them as "
-    why += "functions without a body (z3 bit-blasts binary64); the exhaustive and sequence checks cover it"
+    why += f"functions without a body (z3 bit-blasts {m.reals}); the exhaustive and sequence checks cover it"
     exprs = {inv.id: inv.expr for inv in m.invariants}
-    return [(i, COMPARES_BINARY64 if binary64(exprs[i], types) else why) for i in ids]
+    return [(i, compares_floats(m.reals) if binary64(exprs[i], types) else why) for i in ids]
 
 
 def certify(
@@ -280,7 +287,7 @@ def certify(
     for item in proved:
         inv = by_id[item.id]
         if binary64(inv.expr, lowering.n.types):
-            left.append((inv.id, COMPARES_BINARY64))
+            left.append((inv.id, compares_floats(m.reals)))
             continue
         own = prevs_of(inv.expr)
         frame = frame_of(m, prev_index, own, [lowering.type_of(p.arg) for p in own], stored)

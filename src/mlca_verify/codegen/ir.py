@@ -18,6 +18,7 @@ from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
 from mlca_verify.codegen.tidy import known_false, tidy, without_known
 from mlca_verify.codegen.widths import widths
+from mlca_verify.floats import FORMATS, Format
 from mlca_verify.logic.kept import kept_ranges
 from mlca_verify.model import (
     Const,
@@ -271,6 +272,9 @@ class MachineIR:
     # modes apart: a context whose mode is not a state restarts in the fallback mode too, so the order is free
     hoisted: int = 0
     ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
+    reals: str = "binary64"  # the format every real computes in (see `floats`), and its C type:
+    real: str = "double"
+    int_to_single: bool = False  # whether the Python converts an int to binary32 (`_f32_int`)
     once: tuple[OnceGroup, ...] = ()  # the definitions each mode's step computes once (see `once`)
     observers: tuple[Field, ...] = ()  # the variables only invariants read, kept by the monitor (`<name>_observers_t`)
     every_variable: tuple[Field, ...] = ()  # the context's and the observers', in the spec's order
@@ -312,10 +316,11 @@ GENERATOR_NAME = "mlca-verify"
 PY_TYPES = {"bool": "bool", "int": "int", "real": "float"}
 
 
-def _literal(v: Fraction, kind: Type) -> Code:
+def _literal(v: Fraction, kind: Type, fmt: Format) -> Code:
     """A constant of the spec (a default, a range end) as both languages write it."""
-    text = real_literal(v) if kind == "real" else str(int(v))
-    return Code(text, text, str(v), AcslLowering.real(v) if kind == "real" else text)
+    if kind != "real":
+        return Code(str(int(v)), str(int(v)), str(v), str(int(v)))
+    return Code(real_literal(v, fmt, "c"), real_literal(v, fmt, "py"), str(v), AcslLowering.real(v, fmt))
 
 
 def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) -> MachineIR:
@@ -380,8 +385,8 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         _update(v, m, numbers, stated, _nothing if v.name in observers else partial(_common, once)) for v in m.variables
     )  # the monitor's update of an observer reads no definition computed once (the step's alone)
     fields = tuple(
-        _number_field(v, v.type, v.range, default=_literal(v.initial, v.type), kept=v.name in keeps or v.type != "int",
-                      observer=v.name in observers)
+        _number_field(v, v.type, v.range, names.fmt, default=_literal(v.initial, v.type, names.fmt),
+                      kept=v.name in keeps or v.type != "int", observer=v.name in observers)
         for v in m.variables
     )  # fmt: skip
     ir = MachineIR(
@@ -394,12 +399,17 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         spec_sha256=sha,
         generator=generator,
         ints=names.ints,
+        reals=m.reals,
+        real=names.real,
         initial=m.initial,
         fallback=m.fallback_state,
         states=m.states,
         inputs=tuple(Field(i.name, "bool", "bool", i.doc, i.cite) for i in m.inputs),
-        signals=tuple(_number_field(s, s.type, s.range) for s in m.signals),
-        params=tuple(_number_field(p, p.type, p.range, default=_literal(p.default, p.type)) for p in m.params),
+        signals=tuple(_number_field(s, s.type, s.range, names.fmt) for s in m.signals),
+        params=tuple(
+            _number_field(p, p.type, p.range, names.fmt, default=_literal(p.default, p.type, names.fmt))
+            for p in m.params
+        ),
         variables=tuple(f for f in fields if not f.observer),
         observers=tuple(f for f in fields if f.observer),
         every_variable=fields,
@@ -408,12 +418,12 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         outputs=tuple(
             Definition(
                 o.name,
-                output_type(o.type, bounds.get(o.name)),
+                output_type(o.type, bounds.get(o.name), names.real),
                 PY_TYPES[o.type],
                 stated(o.expr, o.type),
                 o.doc,
                 o.cite,
-                within=_within(o.range, o.type),
+                within=_within(o.range, o.type, names.fmt),
             )
             for o in m.outputs
         ),
@@ -443,6 +453,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     return replace(
         ir,
         helpers=helpers,
+        int_to_single="_f32_int(" in text,
         used=used,
         logic=contracts,
         shapes=code_shapes,
@@ -450,12 +461,14 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     )
 
 
-def _number_field(item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, **extra: object) -> Field:
+def _number_field(
+    item: object, kind: Type, bounds: tuple[Fraction, Fraction] | None, fmt: Format, **extra: object
+) -> Field:
     """A signal, param or variable as a field of the code."""
-    low, high = (_literal(bounds[0], kind), _literal(bounds[1], kind)) if bounds is not None else (None, None)
+    low, high = (_literal(bounds[0], kind, fmt), _literal(bounds[1], kind, fmt)) if bounds is not None else (None, None)
     return Field(
         item.name,  # type: ignore[attr-defined]
-        c_type(kind, bounds),
+        c_type(kind, bounds, real=fmt.ctype),
         PY_TYPES[kind],
         item.doc,  # type: ignore[attr-defined]
         item.cite,  # type: ignore[attr-defined]
@@ -476,7 +489,7 @@ def _update(
     modes the update runs in) from the fields the step computed them into."""
     return Update(
         v.name,
-        c_type(v.type, v.range),
+        c_type(v.type, v.range, real=FORMATS[m.reals].ctype),
         tuple(
             (numbers[t.id], stated(u.expr, v.type, once(t.sources or m.states)))
             for t in m.transitions
@@ -574,21 +587,21 @@ def _read_definitions(
     return frozenset(found)
 
 
-def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type) -> str:
+def _within(bounds: tuple[Fraction, Fraction] | None, kind: Type, fmt: Format) -> str:
     if bounds is None:
         return ""
-    low, high = (_literal(x, kind).c for x in bounds)
+    low, high = (_literal(x, kind, fmt).c for x in bounds)
     return f"in [{low}, {high}]"
 
 
 def _rounded(part: RoundedPart, c: Lowering) -> Rounded:
     code = Code(c.as_type(part.expr, part.kind, None), "", show(part.expr))
-    return Rounded(part.index, c_type(part.kind, None, c.n.ints), code, part.free, part.users)
+    return Rounded(part.index, c_type(part.kind, None, c.n.ints, c.n.real), code, part.free, part.users)
 
 
 def _register(index: int, arg: Expr, c: Lowering, stated: Callable[[Expr, Type], Code], stored: bool) -> Register:
     kind = c.type_of(arg)
-    return Register(index, c_type(kind, None, c.n.ints), PY_TYPES[kind], stated(arg, kind), stored)
+    return Register(index, c_type(kind, None, c.n.ints, c.n.real), PY_TYPES[kind], stated(arg, kind), stored)
 
 
 HELPERS = ("min_d", "max_d", "abs_d", "min_i", "max_i", "abs_i", "div")
@@ -623,7 +636,7 @@ def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowerin
             show(d.expr),
             f"{c.n.prefix}_lshape{use.shape}({args_l}, p)",
         )
-        kind = c_type(d.type, None, c.n.ints)
+        kind = c_type(d.type, None, c.n.ints, c.n.real)
         return Definition(d.name, kind, PY_TYPES[d.type], call, d.doc, d.cite, free=d.name in logic.free)
     exact = not binary64(d.expr, c.n.types)
     body = Code(
@@ -634,7 +647,7 @@ def _definition(d: SpecDefinition, c: Lowering, py: Lowering, logic: AcslLowerin
     )
     if d.type == "bool" and d.signals:
         body = _gated(body, _validity(d.signals, c, py, logic), d.if_invalid)
-    kind = c_type(d.type, None, c.n.ints)
+    kind = c_type(d.type, None, c.n.ints, c.n.real)
     return Definition(d.name, kind, PY_TYPES[d.type], body, d.doc, d.cite, exact, d.name in logic.free)
 
 
@@ -665,7 +678,8 @@ def _shape(sh: Shape, names: Names, uses: dict[str, Use]) -> SharedShape:
     )
     if sh.guarded:
         code = _gated(code, _validity([a for a, _, _ in sh.args], c, py, logic), sh.if_invalid)
-    args = tuple((a, c_type(kind, bounds), PY_TYPES[kind]) for a, kind, bounds in sh.args)
+    args = tuple((a, c_type(kind, bounds, real=names.real), PY_TYPES[kind]) for a, kind, bounds in sh.args)
     users = tuple(sorted(name for name, use in uses.items() if use.shape == sh.index))
     exact = not binary64(sh.expr, types)
-    return SharedShape(sh.index, c_type(sh.kind, None, names.ints), PY_TYPES[sh.kind], args, code, users, exact)
+    kind = c_type(sh.kind, None, names.ints, names.real)
+    return SharedShape(sh.index, kind, PY_TYPES[sh.kind], args, code, users, exact)

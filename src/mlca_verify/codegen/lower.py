@@ -3,8 +3,10 @@
 Both languages read one view of the machine: the context `c` (mode and variables, before or after the step), the
 inputs `i` (booleans and signals) and the params `p`. A definition is a function of that view, so a guard reads
 it over the context before the step and a property over the context after it. Reals are IEEE 754 binary64 in
-both languages; `min`, `max` and `/` go through small helpers that behave alike (Python's `/` would raise where
-C gives an infinity or a NaN). A signal's validity is `lo <= x && x <= hi`, false for NaN and the infinities
+both languages, or binary32 where the spec says so (C's `float`; in Python each operation's binary64 result, and
+each real input, rounded to binary32 by `_f32`, which gives binary32's own result: 53 >= 2 * 24 + 2); `min`,
+`max` and `/` go through small helpers that behave alike (Python's `/` would raise where C gives an infinity or
+a NaN). A signal's validity is `lo <= x && x <= hi`, false for NaN and the infinities
 without any library call.
 """
 
@@ -15,6 +17,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from mlca_verify.codegen.tidy import tidy
+from mlca_verify.floats import FORMATS, Format, shortest_single
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -35,33 +38,42 @@ from mlca_verify.model import (
 )
 
 INT_LIMIT = 2**31 - 1
+BINARY64 = FORMATS["binary64"]
+REAL_CTYPES = frozenset(f.ctype for f in FORMATS.values())  # a field of one of these C types holds a real
 
 
-def c_type(kind: Type, bounds: tuple[Fraction, Fraction] | None = None, ints: str = "int64_t") -> str:
+def c_type(
+    kind: Type, bounds: tuple[Fraction, Fraction] | None = None, ints: str = "int64_t", real: str = "double"
+) -> str:
     """A value's C type: an int field whose range fits 32 bits is an `int32_t`, any other int the type the code's
-    arithmetic computes in (`ints`, see `widths`)."""
+    arithmetic computes in (`ints`, see `widths`); a real the format's type (`real`)."""
     if kind == "bool":
         return "bool"
     if kind == "real":
-        return "double"
+        return real
     if bounds is not None and bounds[0] >= -INT_LIMIT - 1 and bounds[1] <= INT_LIMIT:
         return "int32_t"
     return ints
 
 
-def real_literal(value: Fraction) -> str:
-    """The binary64 nearest to `value`, written so that C and Python read the same double."""
-    text = repr(float(value))
+def real_literal(value: Fraction, fmt: Format = BINARY64, lang: str = "c") -> str:
+    """The value of the format nearest to `value`, written so that C and Python read the same one: in binary64
+    the same text; in binary32 a C `float` constant (suffix `f`), and in Python that float's exact binary64."""
+    rounded = fmt.nearest(value)
+    assert rounded is not None  # the loader keeps every number within 1e15 in magnitude: no format overflows
+    if fmt.name == "binary32" and lang == "c":
+        return shortest_single(float(rounded)) + "f"
+    text = repr(float(rounded))
     return text if any(ch in text for ch in ".en") else text + ".0"
 
 
 WIDTHS = ((8, "int8_t"), (16, "int16_t"), (32, "int32_t"))
 
 
-def output_type(kind: Type, bounds: tuple[Fraction, Fraction] | None) -> str:
+def output_type(kind: Type, bounds: tuple[Fraction, Fraction] | None, real: str = "double") -> str:
     """An output's C type: an int with a range takes the narrowest signed type that holds it."""
     if kind != "int" or bounds is None:
-        return c_type(kind)
+        return c_type(kind, real=real)
     for bits, name in WIDTHS:
         if -(2 ** (bits - 1)) <= bounds[0] and bounds[1] <= 2 ** (bits - 1) - 1:
             return name
@@ -79,6 +91,12 @@ class Names:
     macro: str
     ranges: Mapping[str, tuple[Fraction, Fraction]]  # of each signal
     ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
+    fmt: Format = BINARY64  # the format every real expression computes in
+
+    @property
+    def real(self) -> str:
+        """The C type of a real."""
+        return self.fmt.ctype
 
 
 def names_of(m: Machine, prefix: str, macro: str, observers: frozenset[str] = frozenset()) -> Names:
@@ -97,7 +115,7 @@ def names_of(m: Machine, prefix: str, macro: str, observers: frozenset[str] = fr
             types[item.name] = item.type
     kinds.update({name: "observer" for name in observers})
     ranges = {s.name: s.range for s in m.signals}
-    return Names(kinds, types, {s: k for k, s in enumerate(m.states)}, prefix, macro, ranges)
+    return Names(kinds, types, {s: k for k, s in enumerate(m.states)}, prefix, macro, ranges, fmt=FORMATS[m.reals])
 
 
 class Lowering:
@@ -184,7 +202,11 @@ class Lowering:
         if c and kind == "int" and all(isinstance(x, (Var, Prev)) for x in (e.left, e.right)):
             a = self.widened(e.left, a)  # two int32_t fields: the sum is computed in int64_t, as every int is
         if e.op == "/":
-            return f"{self.n.prefix}_div({a}, {b})" if c else f"_div({a}, {b})"
+            if c:
+                return f"{self.n.prefix}_div({a}, {b})"
+            return f"_f32(_div({a}, {b}))" if self.single else f"_div({a}, {b})"
+        if not c and kind == "real" and self.single:
+            return f"_f32({a} {e.op} {b})"
         return f"({a} {e.op} {b})"
 
     @staticmethod
@@ -198,9 +220,16 @@ class Lowering:
         text = self.go(e, prevs)
         if kind == "real" and self.type_of(e) == "int":
             if isinstance(e, Num):
-                return real_literal(e.value)
-            return f"((double){text})" if self.lang == "c" else f"float({text})"
+                return real_literal(e.value, self.n.fmt, self.lang)
+            if self.lang == "c":
+                return f"(({self.n.real}){text})"
+            return f"_f32_int({text})" if self.single else f"float({text})"
         return text
+
+    @property
+    def single(self) -> bool:
+        """Whether reals are binary32: Python then rounds each real operation's result (`_f32`)."""
+        return self.n.fmt.name == "binary32"
 
     def widened(self, e: Expr, text: str) -> str:
         """A bare read of an int field (a variable, a param, a signal, a register: stored as int32_t where its
@@ -231,7 +260,8 @@ class Lowering:
         """In range: false for NaN and the infinities (every comparison with NaN is false), no library call."""
         low, high = self.n.ranges[signal]
         kind = self.n.types[signal]
-        lo, hi = (real_literal(v) if kind == "real" else self.number(Num(v, False)) for v in (low, high))
+        fmt, lang = self.n.fmt, self.lang
+        lo, hi = (real_literal(v, fmt, lang) if kind == "real" else self.number(Num(v, False)) for v in (low, high))
         x = self.name(signal)
         return f"(({lo} <= {x}) && ({x} <= {hi}))" if self.lang == "c" else f"(({lo} <= {x}) and ({x} <= {hi}))"
 
@@ -240,7 +270,7 @@ class Lowering:
         rule 10.4: both operands of one essential type category; 10.6: no narrower composite assigned)."""
         value = -e.value if negative else e.value
         if e.real or value.denominator != 1:
-            return real_literal(value)
+            return real_literal(value, self.n.fmt, self.lang)
         if self.lang != "c" or self.n.ints == "int32_t":  # an int constant: 32 bits wide on both targets
             return str(int(value))
         return f"INT64_C({int(value)})"

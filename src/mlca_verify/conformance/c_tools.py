@@ -99,6 +99,15 @@ def cppcheck_file(c_file: Path, build: Path) -> CheckOutcome:
 
 
 ARM_FLAGS = ("-mcpu=cortex-m4", "-mthumb", "-Os")
+# a Cortex-M4F's FPU: single precision only, so a machine whose reals are binary32 is built for it
+FPU_FLAGS = ("-mfpu=fpv4-sp-d16", "-mfloat-abi=hard")
+
+
+def arm_flags(reals: str) -> tuple[str, ...]:
+    """The Cortex-M4 build of a machine: binary64 in software, binary32 on the FPU."""
+    return (*ARM_FLAGS, *FPU_FLAGS) if reals == "binary32" else ARM_FLAGS
+
+
 # the ARM run-time ABI's helpers (libgcc): on a core without a double-precision FPU, binary64 arithmetic and
 # compares are calls to these, the only calls generated code may make
 RUNTIME_HELPER = re.compile(r"__aeabi_\w+")

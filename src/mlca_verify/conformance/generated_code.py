@@ -27,9 +27,11 @@ import z3
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
 from mlca_verify.codegen.ir import MachineIR
+from mlca_verify.codegen.lower import REAL_CTYPES
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
-from mlca_verify.conformance.c_tools import ARM_FLAGS, cppcheck_file, external_calls, library_calls, wp_file
+from mlca_verify.conformance.c_tools import arm_flags, cppcheck_file, external_calls, library_calls, wp_file
 from mlca_verify.conformance.outcome import CheckOutcome, Suite
+from mlca_verify.floats import FORMATS
 from mlca_verify.layout import Layout
 from mlca_verify.loading import import_generated
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
@@ -46,8 +48,10 @@ SEQUENCE_STEPS = 10_000
 SUBNORMAL = 5e-324
 
 # how far, relative to the larger, a real the code computes in binary64 may lie from the spec's exact value: the
-# exhaustive check and the generated test suites compare reals by it
+# exhaustive check and the generated test suites compare reals by it (binary64's unit roundoff is 1.1e-16)
 REAL_TOLERANCE = 1e-9
+# the same for binary32 (unit roundoff 6.0e-8): a few hundred roundings of one step's operations
+TOLERANCES = {"binary64": REAL_TOLERANCE, "binary32": 1e-4}
 
 
 @dataclass(frozen=True)
@@ -96,9 +100,9 @@ class Columns:
 
     def __init__(self, ir: MachineIR) -> None:
         self.ir = ir
-        self.var_real = [v.ctype == "double" for v in ir.every_variable]
-        self.reg_real = [r.ctype == "double" for r in ir.kept]
-        self.out_real = [o.ctype == "double" for o in ir.outputs]
+        self.var_real = [v.ctype in REAL_CTYPES for v in ir.every_variable]
+        self.reg_real = [r.ctype in REAL_CTYPES for r in ir.kept]
+        self.out_real = [o.ctype in REAL_CTYPES for o in ir.outputs]
 
     def line(self, row: Row) -> str:
         return " ".join(_fmt(v) for v in row)
@@ -166,12 +170,19 @@ class Columns:
 # --- the boundary set and the sequences ----------------------------------------------------------------
 
 
-def signal_values(low: float, high: float, real: bool) -> list[float | int]:
-    """Range ends, just outside them, the middle, and for a real ±0, NaN, ±infinity and a subnormal."""
-    if not real:
+def signal_values(low: float, high: float, ctype: str) -> list[float | int]:
+    """Range ends, just outside them, the middle, and for a real ±0, NaN, ±infinity and a subnormal, each a
+    value of the field's C type (a float's neighbours and its smallest subnormal for binary32)."""
+    if ctype not in REAL_CTYPES:
         return [int(low), int(high), int(low) - 1, int(high) + 1, (int(low) + int(high)) // 2]
-    outside = [math.nextafter(low, -math.inf), math.nextafter(high, math.inf)]
-    return [low, high, *outside, (low + high) / 2, 0.0, -0.0, math.nan, math.inf, -math.inf, SUBNORMAL]
+    if ctype == "float":
+        single = FORMATS["binary32"]
+        outside = [single.next_after(low, -math.inf), single.next_after(high, math.inf)]
+        middle, tiny = single.round((low + high) / 2), float(Fraction(1, 2**149))
+    else:
+        outside = [math.nextafter(low, -math.inf), math.nextafter(high, math.inf)]
+        middle, tiny = (low + high) / 2, SUBNORMAL
+    return [low, high, *outside, middle, 0.0, -0.0, math.nan, math.inf, -math.inf, tiny]
 
 
 def _flags(ir: MachineIR) -> int:
@@ -194,8 +205,7 @@ def boundary_rows(ir: MachineIR) -> Iterator[Row]:
         contexts += [[*initial[:k], x, *initial[k + 1 :]] for x in variable_values(ir, k)]
     signal_sets = [mids]
     for k, f in enumerate(ir.signals):
-        real = f.ctype == "double"
-        for x in signal_values(_value(f.low.c, f.ctype), _value(f.high.c, f.ctype), real):  # type: ignore[union-attr]
+        for x in signal_values(_value(f.low.c, f.ctype), _value(f.high.c, f.ctype), f.ctype):  # type: ignore[union-attr]
             signal_sets.append([*mids[:k], x, *mids[k + 1 :]])
     registers = [False if r.pytype == "bool" else 0 for r in ir.kept]
     for mode in range(len(ir.states)):
@@ -219,19 +229,28 @@ def variable_values(ir: MachineIR, k: int) -> list[float | int]:
     if v.low is not None and v.high is not None:
         low, high = _value(v.low.c, v.ctype), _value(v.high.c, v.ctype)
         values |= {low, high}
-        if v.ctype != "double":
-            defaults = [int(p.default.c) for p in ir.params if p.ctype != "double" and p.default is not None]
+        if v.ctype not in REAL_CTYPES:
+            defaults = [int(p.default.c) for p in ir.params if p.ctype not in REAL_CTYPES and p.default is not None]
             values |= {d + e for d in defaults for e in (-1, 0, 1) if low <= d + e <= high}
     return sorted(values)
 
 
 def _value(text: str, ctype: str) -> float | int:
-    return float(text) if ctype == "double" else int(text)
+    """A constant of the C code as Python holds it; a binary32 one (suffix `f`) as the float C reads."""
+    if ctype == "float":
+        return FORMATS["binary32"].of_decimal(text.removesuffix("f"))
+    return float(text) if ctype in REAL_CTYPES else int(text)
 
 
 def _mid(f: Any) -> float | int:
     low, high = _value(f.low.c, f.ctype), _value(f.high.c, f.ctype)
-    return (low + high) / 2 if f.ctype == "double" else (low + high) // 2
+    return _held(float(low + high) / 2, f.ctype) if f.ctype in REAL_CTYPES else (low + high) // 2
+
+
+def _held(x: float | int, ctype: str) -> float | int:
+    """A value as a field of the C type holds it: a binary32 field rounds a double (z3, the Python and the C are
+    then all given the same value)."""
+    return FORMATS["binary32"].round(float(x)) if ctype == "float" else x
 
 
 def random_inputs(ir: MachineIR, rng: random.Random) -> Row:
@@ -241,9 +260,9 @@ def random_inputs(ir: MachineIR, rng: random.Random) -> Row:
     for f in ir.signals:
         low, high = _value(f.low.c, f.ctype), _value(f.high.c, f.ctype)  # type: ignore[union-attr]
         if rng.random() < 0.05:
-            signals.append(rng.choice(signal_values(low, high, f.ctype == "double")))
-        elif f.ctype == "double":
-            signals.append(rng.uniform(low, high))
+            signals.append(rng.choice(signal_values(low, high, f.ctype)))
+        elif f.ctype in REAL_CTYPES:
+            signals.append(_held(rng.uniform(low, high), f.ctype))
         else:
             signals.append(rng.randint(int(low), int(high)))
     return tuple(int(b) for b in bits) + tuple(signals)
@@ -365,7 +384,7 @@ def exhaustive(t: Subject, code: Code) -> CheckOutcome:
         mode, variables, outs = z3_step.step(row)
         ours = (c_after[0], *c_after[1:keep], *c_after[outputs])
         theirs = (mode, *variables, *outs)
-        if not all(_close(a, b) for a, b in zip(ours, theirs, strict=True)):
+        if not all(_close(a, b, TOLERANCES[t.ir.reals]) for a, b in zip(ours, theirs, strict=True)):
             return CheckOutcome(
                 "exhaustive", False, f"the code and the spec (z3) differ from {row}: {ours} vs {theirs}"
             )
@@ -419,15 +438,15 @@ def _restart_failure(py: ModuleType, columns: Columns, rows: Sequence[Row], c_ro
         if differ:
             return differ
         got = c_after[: len(expected)]
-        if not all(_close(a, b) for a, b in zip(got, expected, strict=True)):
+        if not all(_close(a, b, TOLERANCES[columns.ir.reals]) for a, b in zip(got, expected, strict=True)):
             return f"from {row} (a mode that names no state) the code restarted as {got}, not as {expected}"
     return None
 
 
-def _close(a: object, b: object) -> bool:
+def _close(a: object, b: object, tolerance: float) -> bool:
     if isinstance(a, float) or isinstance(b, float):
         x, y = float(a), float(b)  # type: ignore[arg-type]
-        return (math.isnan(x) and math.isnan(y)) or x == y or abs(x - y) <= REAL_TOLERANCE * max(abs(x), abs(y))
+        return (math.isnan(x) and math.isnan(y)) or x == y or abs(x - y) <= tolerance * max(abs(x), abs(y))
     return a == b
 
 
@@ -508,7 +527,7 @@ def _assumptions(machine: Machine, ir: MachineIR) -> Callable[[Row], bool]:
     if not machine.assumptions:
         return lambda row: True
     semantics = Binary64(machine)
-    params = {p.name: float(p.default) if p.type == "real" else int(p.default) for p in machine.params}
+    params = {p.name: semantics.real(p.default) if p.type == "real" else int(p.default) for p in machine.params}
     names = [v.name for v in ir.every_variable]
     first_input = context_width(ir)
     inputs = [f.name for f in ir.inputs] + [f.name for f in ir.signals]
@@ -562,7 +581,7 @@ def cross_build(t: Subject) -> CheckOutcome:
         [
             "arm-none-eabi-gcc",
             *C_FLAGS,
-            *ARM_FLAGS,
+            *arm_flags(t.ir.reals),
             "-ffp-contract=off",
             "-fstack-usage",
             "-c",
@@ -581,9 +600,11 @@ def cross_build(t: Subject) -> CheckOutcome:
     frames = {m.group(1): int(m.group(2)) for m in re.finditer(r":\d+:\d+:(\w+)\t(\d+)", usage)}
     step = frames.get(f"{t.ir.module}_step", -1)
     calls = external_calls(obj)
-    outside = library_calls(calls)
+    single = t.ir.reals == "binary32"
+    outside = calls if single else library_calls(calls)  # binary32 runs on the FPU: not even a helper is called
+    where = "binary32 on the single-precision FPU" if single else "binary64 in software"
     detail = (
-        f"arm-none-eabi-gcc {' '.join(ARM_FLAGS)}, binary64 in software: text {text} B, data {data} B, bss {bss} B; "
+        f"arm-none-eabi-gcc {' '.join(arm_flags(t.ir.reals))}, {where}: text {text} B, data {data} B, bss {bss} B; "
         f"stack: {t.ir.module}_step's own frame {step} B, every frame summed {sum(frames.values())} B (a bound on "
         f"any call chain: there is no recursion); {_calls_text(calls, outside)}"
     )
@@ -593,7 +614,7 @@ def cross_build(t: Subject) -> CheckOutcome:
 
 def _calls_text(calls: list[str], outside: list[str]) -> str:
     if outside:
-        return f"calls into a library: {', '.join(outside)}"
+        return f"calls out of the object: {', '.join(outside)}"
     if calls:
         return f"no library call (binary64 through the compiler's soft-float helpers {', '.join(calls)})"
     return "no call out of the object"
@@ -605,6 +626,11 @@ WP_STEPS = 40_000_000
 WP_FLAGS = ("-wp-steps", str(WP_STEPS), "-warn-special-float", "none", "-wp-prop=-binary64")
 
 
+def wp_flags(reals: str) -> tuple[str, ...]:
+    """WP's flags for a machine: its format's label left out (`binary64_goals`)."""
+    return (*WP_FLAGS[:-1], f"-wp-prop=-{reals}")
+
+
 def frama_c(t: Subject) -> CheckOutcome:
     """WP: no runtime error (integer overflow included), the step equal to the spec's transition relation (the
     transition that fires, by the ACSL behaviours of each mode, and the context and outputs after it), variables
@@ -614,7 +640,7 @@ def frama_c(t: Subject) -> CheckOutcome:
     symbol, which has no body (see `codegen.ir.binary64`): they are listed, not sent to the prover. Then
     the spec's proved invariants, each with its certificate, on a wrapper of the step (`certified`)."""
     monitor, outputs = f"{t.ir.module}_monitor", f"{t.ir.module}_outputs"
-    flags = (*WP_FLAGS, "-wp-skip-fct", f"{monitor},{outputs}")
+    flags = (*wp_flags(t.ir.reals), "-wp-skip-fct", f"{monitor},{outputs}")
     outcome = _joined(wp_file(t.layout.c_source, t.build, flags), _outputs_proved(t, outputs))
     left = binary64_goals(t.ir)
     note = (
@@ -623,8 +649,8 @@ def frama_c(t: Subject) -> CheckOutcome:
     )
     if left:
         note += (
-            f"; {len(left)} binary64 goal(s) left to the exhaustive and sequence checks (z3 bit-blasts binary64 "
-            f"and runs out of memory): {', '.join(left)}"
+            f"; {len(left)} {t.ir.reals} goal(s) left to the exhaustive and sequence checks (z3 bit-blasts "
+            f"{t.ir.reals} and runs out of memory): {', '.join(left)}"
         )
     data = {**(outcome.data or {}), "binary64": left}
     if outcome.ok:
@@ -640,10 +666,10 @@ def _outputs_proved(t: Subject, outputs: str) -> CheckOutcome:
     split proves an int output that multiplies two values read from the spec (a nonlinear goal z3 leaves
     unknown whole); it is not the first try, because a split goal that compares binary64 values makes z3
     bit-blast."""
-    whole = wp_file(t.layout.c_source, t.build, (*WP_FLAGS, "-wp-fct", outputs))
+    whole = wp_file(t.layout.c_source, t.build, (*wp_flags(t.ir.reals), "-wp-fct", outputs))
     if whole.ok:
         return whole
-    split = wp_file(t.layout.c_source, t.build, (*WP_FLAGS, "-wp-split", "-wp-fct", outputs))
+    split = wp_file(t.layout.c_source, t.build, (*wp_flags(t.ir.reals), "-wp-split", "-wp-fct", outputs))
     return split if split.ok else whole
 
 
@@ -695,7 +721,7 @@ def certified_invariants(t: Subject) -> CheckOutcome:
     )
     source.write_text(text, encoding="utf-8")
     fcts = f"{t.ir.module}_step_certified,{t.ir.module}_init_certified"
-    ran = wp_file(source, t.build, (*WP_FLAGS, "-wp-fct", fcts))
+    ran = wp_file(source, t.build, (*wp_flags(t.ir.reals), "-wp-fct", fcts))
     data = {**(ran.data or {}), "stated": [x.id for x in stated], "left": [f"{i}: {why}" for i, why in left]}
     unproved = [r.prop for r in results if r.kind == "invariant" and r.prop not in data["stated"]]
     detail = (
@@ -745,18 +771,18 @@ def _unkept_detail(reached: Sequence[str], unkept: Sequence[str]) -> str:
 
 
 def binary64_goals(ir: MachineIR) -> list[str]:
-    """The clauses labelled `binary64`, which WP is not asked to prove: the link of each C function that computes
-    on reals to its logic symbol, and what the step, the reset and the outputs say of the real variables,
-    registers and outputs (see `codegen.rounded`)."""
+    """The clauses labelled `binary64` (or `binary32`, the machine's format), which WP is not asked to prove: the
+    link of each C function that computes on reals to its logic symbol, and what the step, the reset and the
+    outputs say of the real variables, registers and outputs (see `codegen.rounded`)."""
     p = ir.module
     names = [f"{p}_shape{sh.index}" for sh in ir.shapes if not sh.exact]
     names += [f"{p}_def_{d.name}" for d in ir.definitions if d.name in ir.used and not d.exact]
     names += [f"{p}_b64_{r.index}" for r in ir.rounded]
-    names += [f"{p}_reg{r.index}" for r in ir.registers if r.ctype == "double"]
+    names += [f"{p}_reg{r.index}" for r in ir.registers if r.ctype in REAL_CTYPES]
     clauses = [f"{name}: ensures" for name in names]
-    if any(f.ctype == "double" for f in ir.variables) or any(r.ctype == "double" for r in ir.kept):
+    if any(f.ctype in REAL_CTYPES for f in ir.variables) or any(r.ctype in REAL_CTYPES for r in ir.kept):
         clauses += [f"{p}_reset: ensures (reals)", f"{p}_init: ensures (reals)", f"{p}_step: ensures (real variables)"]
-    if any(o.ctype == "double" for o in ir.outputs):
+    if any(o.ctype in REAL_CTYPES for o in ir.outputs):
         clauses += [f"{p}_outputs: ensures (reals)", f"{p}_step: ensures (real outputs)"]
     return clauses
 

@@ -156,6 +156,7 @@ def document(ev: Evidence) -> dict[str, Any]:
             "states": list(ev.spec.machine.states),
             "initial": ev.spec.machine.initial,
             "fallback": ev.spec.machine.fallback_state,
+            "reals": ev.spec.machine.reals,
             "dot": to_dot(ev.spec.machine),
         },
         "ok": ev.ok,

@@ -1,15 +1,18 @@
-"""Does a verdict decided over the reals hold for the generated code, which computes in IEEE 754 binary64?
+"""Does a verdict decided over the reals hold for the generated code, which computes in IEEE 754 binary64 (or
+binary32, where the spec says `machine.reals = "binary32"`; below, binary64 with p = 53 stands for either, p = 24
+for binary32: see `floats`)?
 
 The method (a forward rounding-error bound, then one query per comparison):
 - Each numeric expression gets a bound on |binary64 value - real value|, from interval enclosures of its operands
   (`mlca_verify.intervals`) and the standard model of floating point: each +, -, *, / of binary64 operands is
-  the exact result times (1 + d) with |d| <= 2^-53 (round to nearest, no overflow: the intervals are finite).
+  the exact result times (1 + d) with |d| <= 2^-p, plus, for * and /, half the smallest subnormal (underflow);
+  a result whose enclosure reaches beyond the largest finite value may overflow, and has no bound.
   An operation is exact (bound 0) where its operands are exact multiples of a power of two g (their grain) and
-  the result's magnitude is at most 2^53 g: such a result is itself a binary64. So a timer counting 0.125 a
+  the result's magnitude is at most 2^p g: such a result is itself a binary64. So a timer counting 0.125 a
   step within [0, 10] is exact; one counting 0.1 is not.
   A literal's error is its distance to the nearest binary64; signals, and params in a parametric proof, are
   binary64 values the proof quantifies over, so their error is 0; ints are exact (their `ovf:` checks keep them
-  within 64 bits) and below 2^53 they convert to binary64 exactly. A real variable is exact when its initial
+  within 64 bits) and below 2^p they convert to binary64 exactly. A real variable is exact when its initial
   value and every value assigned to it are; otherwise its error grows with the steps and is unbounded.
 - A comparison of two operands whose bounds are both 0 is decided alike in both arithmetics. Otherwise it is
   robust when no valuation within the ranges brings its operands closer than the sum of their bounds (z3, with a
@@ -30,6 +33,7 @@ from fractions import Fraction
 
 import z3
 
+from mlca_verify.floats import FORMATS
 from mlca_verify.intervals import Interval, enclose, machine_intervals
 from mlca_verify.logic.symbolic import StepInputs, System, Valuation, sort_of, value_of, variable_bounds
 from mlca_verify.model import (
@@ -51,18 +55,11 @@ from mlca_verify.model import (
     type_of,
 )
 
-UNIT = Fraction(1, 2**53)  # the unit roundoff of binary64
-EXACT_INT = Fraction(2**53)  # every integer of at most this magnitude is a binary64
 RLIMIT = 2_000_000  # z3's resource budget for one robustness query
 
 Error = Fraction | None  # None: no bound
 Grain = Fraction | None  # every value is an integer multiple of it (a power of two); None: not known
 GRAIN_ROUNDS = 8  # rounds of the variables' grain fixpoint before a variable's grain is taken as unknown
-
-
-def nearest(value: Fraction) -> Fraction:
-    """The binary64 nearest to `value`, exactly."""
-    return Fraction(float(value))
 
 
 def grain_of(value: Fraction) -> Grain:
@@ -86,6 +83,7 @@ class Rounding:
     def __init__(self, machine: Machine, parametric: bool) -> None:
         self.m = machine
         self.parametric = parametric
+        self.fmt = FORMATS[machine.reals]
         self.kinds = name_types(machine)
         self.bodies = bodies(machine)
         self.intervals = machine_intervals(machine, at_defaults=not parametric)
@@ -154,15 +152,16 @@ class Rounding:
             return True
         values = [variable.every] if variable.every is not None else []
         values += [u.expr for t in self.m.transitions for u in t.updates if u.variable == name]
-        return nearest(variable.initial) == variable.initial and all(self.error(e, exact) == 0 for e in values)
+        return self.fmt.nearest(variable.initial) == variable.initial and all(self.error(e, exact) == 0 for e in values)
 
     def error(self, expr: Expr, exact: Iterable[str] | None = None) -> Error:
         """A bound on |binary64 value - real value| of a numeric expression."""
         exact = self.exact_variables if exact is None else frozenset(exact)
         if type_of(expr, self.kinds) == "int":
-            return Fraction(0) if enclose(expr, self.intervals).within(-EXACT_INT, EXACT_INT) else None
+            limit = self.fmt.exact_int
+            return Fraction(0) if enclose(expr, self.intervals).within(-limit, limit) else None
         if isinstance(expr, Num):
-            return abs(expr.value - nearest(expr.value))
+            return self._literal_error(expr.value)
         if isinstance(expr, Var):
             return self._name_error(expr.name, exact)
         if isinstance(expr, Neg | Prev):
@@ -181,17 +180,21 @@ class Rounding:
             return Fraction(0) if name in exact else None
         param = next((p for p in self.m.params if p.name == name), None)
         if param is not None and not self.parametric:
-            return abs(param.default - nearest(param.default))
+            return self._literal_error(param.default)
         return Fraction(0)
+
+    def _literal_error(self, value: Fraction) -> Error:
+        rounded = self.fmt.nearest(value)
+        return None if rounded is None else abs(value - rounded)
 
     def _arith_error(self, expr: Arith, exact: frozenset[str]) -> Error:
         ea, eb = self.error(expr.left, exact), self.error(expr.right, exact)
         a, b = enclose(expr.left, self.intervals).magnitude(), enclose(expr.right, self.intervals).magnitude()
         top = enclose(expr, self.intervals).magnitude()
-        if ea is None or eb is None or a is None or b is None or top is None:
+        if ea is None or eb is None or a is None or b is None or top is None or top > self.fmt.largest:
             return None
         grain = self.grain(expr)
-        if ea == eb == 0 and grain is not None and top <= EXACT_INT * grain:
+        if ea == eb == 0 and grain is not None and top <= self.fmt.exact_int * grain:
             return Fraction(0)  # a multiple of the grain within 2^53 grains: a binary64, so no rounding
         if expr.op in ("+", "-"):
             carried = ea + eb
@@ -202,7 +205,8 @@ class Rounding:
             if low is None or low <= eb:
                 return None
             carried = (a * eb + b * ea) / (low * (low - eb))
-        return carried + UNIT * (top + carried)
+        tiny = self.fmt.underflow if expr.op in ("*", "/") else Fraction(0)  # a sum of subnormals is exact
+        return carried + self.fmt.unit * (top + carried) + tiny
 
     # --- comparisons ----------------------------------------------------------------------------------
 

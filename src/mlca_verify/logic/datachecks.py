@@ -171,7 +171,8 @@ class DataChecker:
         return replace(r, verdict="unknown", detail=why, counterexample=None, caveat="")
 
     def caveat(self, job: Job, verdict: Verdict, search: Search | None) -> str:
-        """Why a verdict decided over the reals may not hold for the code's binary64, or "" when it does."""
+        """Why a verdict decided over the reals may not hold for the code's arithmetic (binary64 or binary32), or
+        "" when it does."""
         if verdict == "unknown" or search is None or job.kind == "lemma":
             return ""
         if job.parametric not in self._rounding:
@@ -181,7 +182,7 @@ class DataChecker:
         fault = self._rounding[job.parametric].at_fault(job.exprs, abstracted)
         if fault is None:
             return ""
-        return f"{verdict} over the reals; not shown for binary64: {fault} may go either way under rounding"
+        return f"{verdict} over the reals; not shown for {self.m.reals}: {fault} may go either way under rounding"
 
     def trace(self, path: Path) -> Counterexample:
         """The counterexample of a path (made once per path)."""

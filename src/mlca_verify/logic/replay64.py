@@ -1,10 +1,11 @@
 """A run of a machine replayed in the generated code's arithmetic: ints exact (they fit 64 bits where every `ovf:`
-check holds), reals IEEE 754 binary64 with the code's operations in the code's order (`min`/`max` keep the running
-result unless the next argument is smaller/larger, division is IEEE's), each literal the nearest binary64.
+check holds), reals in the machine's IEEE 754 format (binary64, or binary32: `floats`) with the code's operations
+in the code's order (`min`/`max` keep the running result unless the next argument is smaller/larger, division is
+IEEE's), each literal, param, signal and result rounded to the format as the code rounds it.
 
 It confirms a witness or a counterexample the engine found over the reals: when the same inputs, given to the
-code as binary64 values, fire the same transitions, the run is one the code takes too, whatever rounding does to
-the comparisons along it."""
+code in its format, fire the same transitions, the run is one the code takes too, whatever rounding does to the
+comparisons along it."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import math
 from collections.abc import Mapping
 from fractions import Fraction
 
+from mlca_verify.floats import FORMATS
 from mlca_verify.logic.results import Counterexample
 from mlca_verify.model import (
     Arith,
@@ -56,9 +58,17 @@ class Binary64:
         self.m = machine
         self.defs = {d.name: d for d in machine.definitions}
         self.signals = {s.name: s for s in machine.signals}
+        self.fmt = FORMATS[machine.reals]
 
     def number(self, value: Fraction, real: bool) -> Value:
-        return float(value) if real else int(value)
+        return self.real(value) if real else int(value)
+
+    def real(self, x: Value | Fraction) -> float:
+        """`x` as the code holds it in its format: a float rounded, an int or a literal rounded once."""
+        if self.fmt.name == "binary64" or isinstance(x, float):
+            return self.fmt.round(float(x))
+        exact = self.fmt.nearest(Fraction(x))
+        return math.copysign(math.inf, x) if exact is None else float(exact)
 
     def ev(self, e: Expr, env: Mapping[str, Value], mode: str) -> Value:
         if isinstance(e, Const):
@@ -96,17 +106,18 @@ class Binary64:
     def compare(self, e: Cmp, env: Mapping[str, Value], mode: str) -> bool:
         a, b = self.ev(e.left, env, mode), self.ev(e.right, env, mode)
         if isinstance(a, float) or isinstance(b, float):
-            a, b = float(a), float(b)  # the code converts an int operand to binary64
+            a, b = self.real(a), self.real(b)  # the code converts an int operand to its format
         ops = {"<": a < b, "<=": a <= b, ">": a > b, ">=": a >= b, "==": a == b, "!=": a != b}
         return ops[e.op]
 
     def arith(self, e: Arith, env: Mapping[str, Value], mode: str) -> Value:
         a, b = self.ev(e.left, env, mode), self.ev(e.right, env, mode)
         if e.op == "/":
-            return _divide(float(a), float(b))
+            return self.fmt.round(_divide(self.real(a), self.real(b)))
         if isinstance(a, float) or isinstance(b, float):
-            a, b = float(a), float(b)
-        return {"+": a + b, "-": a - b, "*": a * b}[e.op]
+            x, y = self.real(a), self.real(b)
+            return self.fmt.round({"+": x + y, "-": x - y, "*": x * y}[e.op])  # binary64 then rounded once more:
+        return {"+": a + b, "-": a - b, "*": a * b}[e.op]  # binary32's result, as 53 >= 2 * 24 + 2
 
     def call(self, e: Call, env: Mapping[str, Value], mode: str) -> Value:
         if e.fn == "valid":
@@ -115,7 +126,7 @@ class Binary64:
             return self.valid(arg.name, env)
         args = [self.ev(a, env, mode) for a in e.args]
         if any(isinstance(a, float) for a in args):
-            args = [float(a) for a in args]
+            args = [self.real(a) for a in args]
         if e.fn == "abs":
             return args[0] if args[0] >= 0 else -args[0]
         return _fold(e.fn, args)
@@ -135,7 +146,7 @@ class Binary64:
         if d.type == "bool" and d.signals and not all(self.valid(s, env) for s in d.signals):
             return d.if_invalid
         value = self.ev(d.expr, env, mode)
-        return float(value) if d.type == "real" else value
+        return self.real(value) if d.type == "real" else value
 
     def step(self, mode: str, env: dict[str, Value]) -> tuple[str, str | None, dict[str, Value]]:
         """One step from `mode` with `env` (variables, params, the step's inputs): the next mode, the transition
@@ -152,31 +163,31 @@ class Binary64:
         for v in self.m.variables:
             expr = next((u.expr for u in (fired.updates if fired else ()) if u.variable == v.name), v.every)
             value = env[v.name] if expr is None else self.ev(expr, env, mode)
-            after[v.name] = float(value) if v.type == "real" else value
+            after[v.name] = self.real(value) if v.type == "real" else value
         return (fired.target if fired else mode), (fired.id if fired else None), after
 
 
 def follows(machine: Machine, trace: Counterexample) -> bool:
-    """Does the code, given the trace's params and inputs as binary64 values, fire the trace's transitions at
-    every step?"""
+    """Does the code, given the trace's params and inputs in its format, fire the trace's transitions at every
+    step?"""
     sim = Binary64(machine)
     params: dict[str, Value] = {}
     for p in machine.params:
         value = trace.params.get(p.name)
         params[p.name] = sim.number(p.default, p.type == "real") if value is None else value
-        params[p.name] = float(params[p.name]) if p.type == "real" else params[p.name]
+        params[p.name] = sim.real(params[p.name]) if p.type == "real" else params[p.name]
     variables: dict[str, Value] = {v.name: sim.number(v.initial, v.type == "real") for v in machine.variables}
     mode = machine.initial
     for step in trace.steps:
         if step.state != mode:
             return False
-        env: dict[str, Value] = {**params, **variables, **step.inputs, **_signals(machine, step.signals)}
+        env: dict[str, Value] = {**params, **variables, **step.inputs, **_signals(sim, step.signals)}
         mode, fired, variables = sim.step(mode, env)
         if fired != step.outcome.transition or mode != step.outcome.next:
             return False
     return True
 
 
-def _signals(machine: Machine, values: Mapping[str, Value]) -> dict[str, Value]:
-    kinds = {s.name: s.type for s in machine.signals}
-    return {k: float(v) if kinds.get(k) == "real" else v for k, v in values.items()}
+def _signals(sim: Binary64, values: Mapping[str, Value]) -> dict[str, Value]:
+    kinds = {s.name: s.type for s in sim.m.signals}
+    return {k: sim.real(v) if kinds.get(k) == "real" else v for k, v in values.items()}

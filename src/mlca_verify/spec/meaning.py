@@ -8,6 +8,7 @@ from typing import Any, cast
 
 from mlca_verify.errors import Loc, SpecError
 from mlca_verify.escape import c_form
+from mlca_verify.floats import REALS, Reals
 from mlca_verify.intervals import Interval, enclose
 from mlca_verify.model import (
     ANY_STATE,
@@ -189,6 +190,7 @@ class MeaningChecker:
             step_s=step_s,
             lemmas=lemmas,
             data=self.data,
+            reals=cast(Reals, self.choice(("machine", "reals"), m.get("reals", "binary64"), REALS)),
         ))  # fmt: skip
 
     def observed(self, machine: Machine) -> Machine:

@@ -47,6 +47,8 @@ _SECTION_KEYS = {
     ("machine", "states"): "The machine's states, each a name.",
     ("machine", "semantics"): "How transitions are chosen: first-match (in the order written) or any-enabled.",
     ("machine", "otherwise"): "When no transition is enabled: stay in the state, or undefined (a finding).",
+    ("machine", "reals"): "The IEEE 754 format the generated code computes reals in: binary64 (double, the "
+    "default) or binary32 (float, for a single-precision FPU).",
     ("machine", "step_s"): "The seconds of one step (the sample rate's period): within_s and timers read it.",
     ("transition", "from"): 'The state or states it leaves, or "*" for every state.',
     ("transition", "to"): "The state it enters.",

@@ -41,6 +41,7 @@ MACHINE = {
     "cite": Field("str"),
     "doc": Field("str"),
     "step_s": Field("number"),
+    "reals": Field("str"),
 }
 INPUT = {"doc": Field("str", True), "cite": Field("str")}
 TRANSITION = {

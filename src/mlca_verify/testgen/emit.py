@@ -12,10 +12,12 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import cast
 
 from mlca_verify.codegen.lower import real_literal
 from mlca_verify.codegen.render import Escaped, render_template
-from mlca_verify.conformance.generated_code import REAL_TOLERANCE
+from mlca_verify.conformance.generated_code import TOLERANCES
+from mlca_verify.floats import FORMATS, Reals
 from mlca_verify.model import Machine, observer_variables
 from mlca_verify.testgen.search import Pair
 from mlca_verify.testgen.suite import Case, MonitorCase, Suite
@@ -34,7 +36,8 @@ def py_value(value: object) -> str:
     return repr(value)
 
 
-def c_value(value: object, real: bool) -> str:
+def c_value(value: object, real: str) -> str:
+    """A value as C writes it into a field: `real` is the field's format ("" for a bool or an int field)."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if real and isinstance(value, float) and not math.isfinite(value):
@@ -42,7 +45,7 @@ def c_value(value: object, real: bool) -> str:
     if real and isinstance(value, float) and value == 0 and math.copysign(1.0, value) < 0:
         return "-0.0"
     if real and isinstance(value, int | float):
-        return real_literal(Fraction(value))
+        return real_literal(Fraction(value), FORMATS[cast(Reals, real)])
     return str(value)
 
 
@@ -50,31 +53,31 @@ def _py_dict(values: Mapping[str, object]) -> Escaped:
     return Escaped("{" + ", ".join(f"{k!r}: {py_value(v)}" for k, v in values.items()) + "}")
 
 
-def _types(m: Machine) -> dict[str, bool]:
-    """Which names hold reals."""
-    real = {s.name: s.type == "real" for s in m.signals}
-    real.update({v.name: v.type == "real" for v in m.variables})
-    real.update({o.name: o.type == "real" for o in m.outputs})
-    real.update({p.name: p.type == "real" for p in m.params})
-    return real
+def _types(m: Machine) -> dict[str, str]:
+    """Which names hold reals: the machine's format for those, "" for the others."""
+    typed = [(x.name, x.type) for x in m.signals] + [(x.name, x.type) for x in m.variables]
+    typed += [(x.name, x.type) for x in m.outputs] + [(x.name, x.type) for x in m.params]
+    return {name: m.reals if kind == "real" else "" for name, kind in typed}
 
 
 def real_comparison(m: Machine) -> dict[str, object]:
     """How both suites compare a real the code computed with the spec's exact value: within the relative
-    REAL_TOLERANCE, plus an absolute slack per real variable and output, that tolerance times the magnitude of its
-    declared range (0 without one). Near zero a relative tolerance alone is too tight: a cruise control's clamped
-    deceleration is 0.0 in binary64 where the spec's exact value is 1.8e-16."""
+    tolerance of its format (TOLERANCES), plus an absolute slack per real variable and output, that tolerance
+    times the magnitude of its declared range (0 without one). Near zero a relative tolerance alone is too
+    tight: a cruise control's clamped deceleration is 0.0 in binary64 where the spec's exact value is 1.8e-16."""
+    tolerance = TOLERANCES[m.reals]
     ranged = [(o.name, o.range) for o in m.outputs if o.type == "real"]
     ranged += [(v.name, v.range) for v in m.variables if v.type == "real"]
     slack = {
-        name: REAL_TOLERANCE * float(max(abs(bounds[0]), abs(bounds[1]))) if bounds is not None else 0.0
+        name: tolerance * float(max(abs(bounds[0]), abs(bounds[1]))) if bounds is not None else 0.0
         for name, bounds in sorted(ranged)
     }
-    return {"tolerance": Escaped(repr(REAL_TOLERANCE)), "bounds": {k: Escaped(repr(v)) for k, v in slack.items()}}
+    bounds = {k: Escaped(repr(v)) for k, v in slack.items()}
+    return {"tolerance": Escaped(repr(tolerance)), "bounds": bounds, "reals": Escaped(m.reals)}
 
 
-def _c_struct(values: Mapping[str, object], real: dict[str, bool]) -> Escaped:
-    fields = ", ".join(f".{k} = {c_value(v, real.get(k, False))}" for k, v in values.items())
+def _c_struct(values: Mapping[str, object], real: dict[str, str]) -> Escaped:
+    fields = ", ".join(f".{k} = {c_value(v, real.get(k, ''))}" for k, v in values.items())
     return Escaped("{" + (fields or "0") + "}")  # C99 has no empty initializer
 
 
@@ -197,7 +200,7 @@ def _apart(values: Mapping[str, object], watched: frozenset[str]) -> tuple[dict[
 
 
 def _c_monitor(
-    case: MonitorCase, real: dict[str, bool], invariants: list[str], watched: frozenset[str]
+    case: MonitorCase, real: dict[str, str], invariants: list[str], watched: frozenset[str]
 ) -> tuple[object, ...]:
     s = case.snapshot
     before, seen = _apart(dict(s.before), watched)
