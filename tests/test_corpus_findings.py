@@ -20,12 +20,14 @@ from mlca_verify.codegen.certified import COMPARES_BINARY64, as_wp_sees, needs_a
 from mlca_verify.conformance import conform
 from mlca_verify.conformance.outcome import CHECKS, CheckOutcome
 from mlca_verify.evidence.collect import Evidence, argument
+from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
 from mlca_verify.logic.induction import Limits
 from mlca_verify.model import Machine, Not, Var, nodes, show
 from mlca_verify.spec import load_spec
 from mlca_verify.testgen.objectives import atoms, decisions
+from mlca_verify.testgen.suite import replay
 from tests.conftest import ROOT
 
 HEAD = """
@@ -235,3 +237,39 @@ when = "go"
     found = {d.id: d for d in decisions(load_spec(_spec(tmp_path, body)).machine)}
     assert [show(found["output:busy#1"].expr), *map(show, found["output:busy#1"].given)] == ["n >= 3 and n < 7", "go"]
     assert [show(found["output:busy#2"].expr), *map(show, found["output:busy#2"].given)] == ["n < 1 or n > 8", "not go"]
+
+
+def test_the_suites_expectations_follow_a_binary32_timer_as_the_code_holds_it(tmp_path: Path) -> None:
+    """The motor limiter's hot-winding timer counts 0.001 s a step in binary32. The generated suite carried each
+    step's context to the next as the nearest binary64, so its timer drifted from the float the code holds, and
+    after 20 steps it expected an invariant to hold that the code, holding 0.0200000014, says fails. The context
+    is now carried as the code's format holds it: the suite's verdict at every step is the code's."""
+    body = """
+reals = "binary32"
+[inputs]
+go = { doc = "go" }
+[params]
+LIMIT = { type = "real", default = 0.02, range = [0.001, 1.0], unit = "s", doc = "the limit" }
+[variables]
+t = { type = "real", initial = 0.0, range = [0.0, 1.0], unit = "s", every = "min(t + 0.001, 1.0)", doc = "time" }
+[[transition]]
+from = "A"
+to = "B"
+when = "go"
+[[invariant]]
+id = "early"
+expr = "t < LIMIT"
+expect = "violated"
+"""
+    spec = _spec(tmp_path, body)
+    machine = load_spec(spec).machine
+    steps = replay(machine, [(None, [{"go": False}] * 25)])[0]
+    assert main(["gen", "--out", str(tmp_path / "gen"), str(spec)]) == 0
+    code = import_generated(tmp_path / "gen" / "python" / "k_fsm.py", "k_binary32_timer")
+    ctx, inputs = code.Context(), code.Inputs(go=False)
+    for k, expected in enumerate(steps):
+        before = code.Context(**vars(ctx))
+        out = code.step(ctx, inputs)
+        assert code.monitor(before, ctx, inputs, code.DEFAULT_PARAMS, out) == list(expected.failing), k
+        assert abs(ctx.t - expected.variables[0]) <= 1e-4 * abs(ctx.t), k
+    assert steps[18].failing == () and steps[19].failing == ("early",)

@@ -11,6 +11,7 @@ from fractions import Fraction
 
 import z3
 
+from mlca_verify.floats import FORMATS, Format
 from mlca_verify.logic.symbolic import Frame, StepInputs, StepTerms, System, value_of
 from mlca_verify.model import Machine, prevs_of, stored_registers
 from mlca_verify.testgen import DEPTH
@@ -74,7 +75,12 @@ Run = tuple[Start, list[Sample]]
 
 def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
     """What the spec says of each run (from its start, or from the initial state), step by step: one step of
-    the spec's step relation at a time, with the context before it and its inputs fixed."""
+    the spec's step relation at a time, with the context before it and its inputs fixed. The context a step
+    leaves is carried to the next as the code holds it: each real variable the value of the machine's format
+    (binary64 or binary32) nearest z3's exact one, which is the code's own result where the update is one
+    operation. So each step's expectation is the spec's from the context the code is in, and rounding does not
+    pile up between the two over a run (a timer counting 0.001 a step holds in binary32 what the float code
+    holds, not the exact sum or its nearest binary64)."""
     prevs = prevs_of(*(i.expr for i in machine.invariants), *(o.expr for o in machine.outputs))
     system = System(machine, prevs)
     stored = stored_registers(machine, prevs)
@@ -89,40 +95,65 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
     answers = []
     for start, run in runs:
         context = first if start is None else dict(start)
+        held: dict[str, z3.ExprRef] = {}
+        fmt = FORMATS[machine.reals]
         steps = []
         for sample in run:
-            held = _start(system, pre, context), *unkept(system, pre, i, stored), _fix(system, i, sample)
-            if solver.check(*held) != z3.sat:
+            fixed = (_start(system, pre, context, held, fmt), *unkept(system, pre, i, stored))
+            fixed += (_fix(system, i, sample, fmt),)
+            if solver.check(*fixed) != z3.sat:
                 raise AssertionError(f"the spec has no step from {context} under {sample}")
             model = solver.model()
             steps.append(_expected(system, model, post, terms))
             context = frame_values(model, post, stored)
+            held = {n: _held(model.eval(t, model_completion=True), fmt) for n, t in post.variables.items()}
         answers.append(steps)
     return answers
 
 
-def _start(system: System, f: Frame, start: dict[str, bool | int | float]) -> z3.BoolRef:
+def _held(value: z3.ExprRef, fmt: Format) -> z3.ExprRef:
+    """A variable's value as the code's field holds it: a real rounded to the format, an int or a bool as is."""
+    if not z3.is_rational_value(value) or z3.is_int_value(value):
+        return value
+    return z3.RealVal(_rounded(value.as_fraction(), fmt))
+
+
+def _rounded(value: Fraction, fmt: Format) -> Fraction:
+    """A real as a field of the format holds it (the loader keeps every number far from overflow)."""
+    rounded = fmt.nearest(value)
+    return value if rounded is None else rounded
+
+
+def _start(
+    system: System, f: Frame, start: dict[str, bool | int | float], held: dict[str, z3.ExprRef], fmt: Format
+) -> z3.BoolRef:
+    """The context before a step: `start`, each variable as the code holds it (`held`, after a step)."""
     parts = [f.mode == int(start["mode"]), f.first == bool(start.get("first", False))]  # none: after a step
-    parts += [f.variables[v.name] == value_of(Fraction(start[v.name]), v.type) for v in system.m.variables]
+    for v in system.m.variables:
+        given = Fraction(start[v.name])
+        value = held.get(v.name, value_of(_rounded(given, fmt) if v.type == "real" else given, v.type))
+        parts.append(f.variables[v.name] == value)
     parts += [reg == start[f"prev{k}"] for k, reg in f.registers.items() if f"prev{k}" in start]
     return z3.And(*parts)
 
 
-def _fix(system: System, i: StepInputs, sample: Sample) -> z3.BoolRef:
+def _fix(system: System, i: StepInputs, sample: Sample, fmt: Format) -> z3.BoolRef:
     parts = []
     for name, value in sample.items():
         if isinstance(value, bool):
             parts.append(i.bools[name] == value)
         else:
-            parts.append(i.signals[name] == _exact(system, name, value))
+            parts.append(i.signals[name] == _exact(system, name, value, fmt))
     return z3.And(*parts)
 
 
-def _exact(system: System, name: str, value: int | float) -> z3.ExprRef:
+def _exact(system: System, name: str, value: int | float, fmt: Format) -> z3.ExprRef:
+    """A sample as the code reads it: a real one rounded to the format (an infinity or NaN as out of range)."""
     signal = system.signals[name]
     if isinstance(value, float) and not math.isfinite(value):
         return value_of(signal.range[1] + 1, signal.type)
-    return value_of(Fraction(value), signal.type)
+    exact = Fraction(value)
+    return value_of(_rounded(exact, fmt) if signal.type == "real" else exact, signal.type)
 
 
 def _expected(system: System, model: z3.ModelRef, post: Frame, terms: StepTerms) -> Expected:
