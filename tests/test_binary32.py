@@ -7,8 +7,11 @@ of a corpus machine that computes in binary32, on the FPU with no helper call.""
 from __future__ import annotations
 
 import math
+import os
 import re
 import struct
+import subprocess
+import sys
 from fractions import Fraction
 from pathlib import Path
 
@@ -26,6 +29,7 @@ from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.replay64 import Binary64
 from mlca_verify.model import Arith, Num, Var
 from mlca_verify.spec import load_spec
+from mlca_verify.tools import C_FLAGS
 from tests.conftest import ROOT
 
 SINGLE = FORMATS["binary32"]
@@ -159,3 +163,46 @@ def test_a_binary32_machine_passes_every_check_on_the_fpu(tmp_path: Path) -> Non
     assert not failed, failed
     m4 = next(o for o in report.outcomes if o.name == "cortex-m4")
     assert "binary32 on the single-precision FPU" in m4.detail and m4.data["calls"] == []
+
+
+def test_a_binary32_violation_replays_as_tests_that_compile_with_float_constants(tmp_path: Path) -> None:
+    """`check --emit-tests` writes a pytest and a C test replaying a violation with its params and samples: in
+    binary32 the C test's constants are float constants (a double one in a float field fails -Wconversion)."""
+    spec = tmp_path / "heater.toml"
+    spec.write_text(
+        """
+[machine]
+name = "Heater"
+initial = "OFF"
+states = ["OFF", "ON"]
+reals = "binary32"
+[params]
+SET = { type = "real", default = 20.1, range = [5.0, 30.0], unit = "degC", doc = "set point" }
+[signals]
+room = { type = "real", unit = "degC", range = [-20.0, 50.0], doc = "room temperature" }
+[definitions]
+cold = { expr = "room < SET - 0.3", if_invalid = false, doc = "below the set point" }
+[[transition]]
+from = "OFF"
+to = "ON"
+when = "cold"
+[[invariant]]
+id = "never-on"
+expr = "state != ON"
+expect = "violated"
+""",
+        encoding="utf-8",
+    )
+    generated, out = tmp_path / "gen", tmp_path / "emitted"
+    assert main(["gen", "--out", str(generated), str(spec)]) == 0
+    assert main(["check", str(spec), "--quiet", "--emit-tests", str(out), "--generated", str(generated)]) == 0
+    test_c = out / "test_heater_never_on.c"
+    assert re.search(r"\b20\.1f\b", test_c.read_text(encoding="utf-8"))
+    exe = tmp_path / "never_on"
+    built = subprocess.run(["gcc", *C_FLAGS, "-ffp-contract=off", f"-I{generated / 'c'}", "-o", str(exe), str(test_c)],
+                           capture_output=True, text=True, check=False)  # fmt: skip
+    assert built.returncode == 0, built.stderr
+    assert subprocess.run([str(exe)], capture_output=True, check=False).returncode == 1  # the violation, replayed
+    env = {**os.environ, "HEATER_FSM": str(generated / "python" / "heater_fsm.py")}
+    pytest_cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(out / "test_heater_never_on.py")]
+    assert subprocess.run(pytest_cmd, capture_output=True, check=False, env=env).returncode == 1

@@ -15,9 +15,10 @@ from fractions import Fraction
 from pathlib import Path
 
 from mlca_verify.codegen.ir import MachineIR, build_ir
-from mlca_verify.codegen.lower import Lowering, names_of, real_literal
+from mlca_verify.codegen.lower import REAL_CTYPES, Lowering, names_of, real_literal
 from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
+from mlca_verify.floats import FORMATS
 from mlca_verify.layout import Layout
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Liveness, Machine, Output, Variable, observer_variables, prevs_of
@@ -38,8 +39,9 @@ def _value_py(value: object) -> str:
 def _value_c(value: object, ctype: str) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
-    if ctype == "double" and isinstance(value, int | float | Fraction):
-        return real_literal(Fraction(value))
+    if ctype in REAL_CTYPES and isinstance(value, int | float | Fraction):
+        fmt = next(f for f in FORMATS.values() if f.ctype == ctype)  # a float field takes a float constant
+        return real_literal(Fraction(value), fmt)
     return str(value)
 
 
@@ -75,13 +77,13 @@ def replay_tests(spec: LoadedSpec, result: Result, module_path: str) -> tuple[st
         ranged: list[Variable | Output] = [*m.variables, *m.outputs]
         element = next(e for e in ranged if f"range:{e.name}" == result.prop)
         assert element.range is not None
-        kind = "double" if element.type == "real" else "int"
+        kind = ir.real if element.type == "real" else "int"
         values.update(
             variable=element.name,
             # an output is read from the step's outputs, an observer from what the monitor keeps
             holder="out" if isinstance(element, Output) else "g" if element.name in observer_variables(m) else "ctx",
-            low=Escaped(_value_c(element.range[0] if kind == "double" else int(element.range[0]), kind)),
-            high=Escaped(_value_c(element.range[1] if kind == "double" else int(element.range[1]), kind)),
+            low=Escaped(_value_c(element.range[0] if kind in REAL_CTYPES else int(element.range[0]), kind)),
+            high=Escaped(_value_c(element.range[1] if kind in REAL_CTYPES else int(element.range[1]), kind)),
         )
     if result.kind == "liveness":
         live = next(p for p in m.liveness if p.id == result.prop)
