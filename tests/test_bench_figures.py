@@ -29,7 +29,7 @@ def test_every_block_is_stamped_by_the_benchmark_that_writes_it() -> None:
     blocks = _blocks()
     assert {name for _, name, _ in blocks} >= {
         "mlca-t", "corpus", "mlca", "wp-size", "wp-boolean",
-        "check-shipped", "check-sharing", "check-corpora", "check-growth", "check-data", "matrix",
+        "check-shipped", "check-sharing", "check-corpora", "check-growth", "check-data", "matrix", "formats",
     }  # fmt: skip
     for page, name, body in blocks:
         stamp = STAMP.search(body)
@@ -101,7 +101,15 @@ def _wp_size(body: str, data: Rows) -> int:
     return len(data)
 
 
+def _formats(body: str, data: Rows) -> int:
+    sizes = {cells[0]: _number(cells[2]) for cells in data}
+    (quoted,) = [float(q) for q in BOLD.findall(body)]
+    assert abs(quoted - sizes["binary32"] / sizes["binary64"]) < TOLERANCE
+    return len(data)
+
+
 CHECKS = {
+    "formats": _formats,
     "corpus": _corpus,
     "mlca-t": _mlca_t,
     "mlca": _mlca,
