@@ -155,22 +155,7 @@ def _quiet(_: CheckOutcome) -> None:
     pass
 
 
-@pytest.mark.slow
-def test_a_binary32_machine_passes_every_check_on_the_fpu(tmp_path: Path) -> None:
-    assert main(["gen", "--out", str(tmp_path), str(MOTOR)]) == 0
-    report = conform(load_spec(MOTOR, compare=False), tmp_path, list(CHECKS), _quiet)
-    failed = [(o.name, o.detail) for o in report.outcomes if not o.ok]
-    assert not failed, failed
-    m4 = next(o for o in report.outcomes if o.name == "cortex-m4")
-    assert "binary32 on the single-precision FPU" in m4.detail and m4.data["calls"] == []
-
-
-def test_a_binary32_violation_replays_as_tests_that_compile_with_float_constants(tmp_path: Path) -> None:
-    """`check --emit-tests` writes a pytest and a C test replaying a violation with its params and samples: in
-    binary32 the C test's constants are float constants (a double one in a float field fails -Wconversion)."""
-    spec = tmp_path / "heater.toml"
-    spec.write_text(
-        """
+HEATER = """
 [machine]
 name = "Heater"
 initial = "OFF"
@@ -182,17 +167,47 @@ SET = { type = "real", default = 20.1, range = [5.0, 30.0], unit = "degC", doc =
 room = { type = "real", unit = "degC", range = [-20.0, 50.0], doc = "room temperature" }
 [definitions]
 cold = { expr = "room < SET - 0.3", if_invalid = false, doc = "below the set point" }
+warm = { expr = "room > SET + 0.3", if_invalid = true, doc = "above the set point, or no valid sample" }
+[outputs]
+power = { type = "real", range = [0.0, 1.0], if_invalid = 0.0, expr = "if state == ON then max(min((SET - room) / 4.0, 1.0), 0.0) else 0.0", doc = "heating power" }
 [[transition]]
 from = "OFF"
 to = "ON"
 when = "cold"
+[[transition]]
+from = "ON"
+to = "OFF"
+when = "warm"
 [[invariant]]
 id = "never-on"
 expr = "state != ON"
 expect = "violated"
-""",
-        encoding="utf-8",
-    )
+[[invariant]]
+id = "no-power-when-off"
+expr = "state == OFF -> power == 0.0"
+"""
+
+
+@pytest.mark.slow
+def test_a_binary32_machine_passes_every_check_on_the_fpu(tmp_path: Path) -> None:
+    """Every conform check of a small binary32 machine (the corpus's motor limiter, in bench/bench_corpus.py,
+    takes three minutes): the exhaustive and sequence comparisons, WP, cppcheck's MISRA, the sanitizers, and
+    the Cortex-M4F build on the FPU with no call out of the object."""
+    spec = tmp_path / "heater.toml"
+    spec.write_text(HEATER, encoding="utf-8")
+    assert main(["gen", "--out", str(tmp_path), str(spec)]) == 0
+    report = conform(load_spec(spec, compare=False), tmp_path, list(CHECKS), _quiet)
+    failed = [(o.name, o.detail) for o in report.outcomes if not o.ok]
+    assert not failed, failed
+    m4 = next(o for o in report.outcomes if o.name == "cortex-m4")
+    assert "binary32 on the single-precision FPU" in m4.detail and m4.data["calls"] == []
+
+
+def test_a_binary32_violation_replays_as_tests_that_compile_with_float_constants(tmp_path: Path) -> None:
+    """`check --emit-tests` writes a pytest and a C test replaying a violation with its params and samples: in
+    binary32 the C test's constants are float constants (a double one in a float field fails -Wconversion)."""
+    spec = tmp_path / "heater.toml"
+    spec.write_text(HEATER, encoding="utf-8")
     generated, out = tmp_path / "gen", tmp_path / "emitted"
     assert main(["gen", "--out", str(generated), str(spec)]) == 0
     assert main(["check", str(spec), "--quiet", "--emit-tests", str(out), "--generated", str(generated)]) == 0

@@ -12,9 +12,10 @@ import pytest
 
 from mlca_verify.codegen import generate, write
 from mlca_verify.conformance import conform
+from mlca_verify.floats import FORMATS
 from mlca_verify.loading import import_generated
 from mlca_verify.logic import check_all
-from mlca_verify.logic.binary64 import UNIT, Rounding, nearest
+from mlca_verify.logic.binary64 import Rounding
 from mlca_verify.logic.results import Result
 from mlca_verify.spec import load_spec, load_text
 
@@ -159,7 +160,7 @@ def test_a_literal_is_exact_when_it_is_a_binary64(text: str, exact: bool) -> Non
     assert variable.every is not None
     (step,) = [n for n in _nums(variable.every) if n != 1]
     assert (rounding.error(_num(step)) == 0) is exact
-    assert nearest(Fraction(text)) == Fraction(float(text))
+    assert FORMATS["binary64"].nearest(Fraction(text)) == Fraction(float(text))
 
 
 def test_the_rounding_bound_covers_what_binary64_computes() -> None:
@@ -170,7 +171,7 @@ def test_the_rounding_bound_covers_what_binary64_computes() -> None:
     assert variable.every is not None
     bound = rounding.error(variable.every.args[0])  # type: ignore[attr-defined]
     assert bound is None  # it reads the drifting timer: no bound over unboundedly many steps
-    assert Fraction(1, 2**53) == UNIT
+    assert Fraction(1, 2**53) == rounding.fmt.unit
 
 
 def _nums(expr: object) -> list[Fraction]:
