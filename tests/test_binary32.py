@@ -56,7 +56,7 @@ def test_binary32_rounds_an_int_once(n: int) -> None:
     near = _c_float(float(n))
     candidates = (near, *_neighbours(near))
     best = min(candidates, key=lambda v: (abs(Fraction(v) - n), struct.unpack("<i", struct.pack("<f", v))[0] & 1))
-    assert Fraction(SINGLE.of_int(n)) == Fraction(best)
+    assert Fraction(SINGLE.of(n)) == Fraction(best)
 
 
 def _neighbours(v: float) -> tuple[float, ...]:
@@ -128,7 +128,7 @@ def test_the_replay_computes_in_the_machines_format(tmp_path: Path) -> None:
     x32 = _c_float(0.7)
     assert single.ev(total, {"x": x32}, "LOW") == _c_float(_c_float(x32 * _c_float(0.1)) + _c_float(1 / 3))
     assert double.ev(total, env, "LOW") == 0.7 * 0.1 + 1 / 3
-    assert single.real(2**60 + 2**36 + 1) == SINGLE.of_int(2**60 + 2**36 + 1)
+    assert single.real(2**60 + 2**36 + 1) == SINGLE.of(2**60 + 2**36 + 1)
 
 
 def test_binary32_code_computes_in_float_and_python_rounds_alike(tmp_path: Path) -> None:
@@ -148,7 +148,7 @@ def test_binary32_code_computes_in_float_and_python_rounds_alike(tmp_path: Path)
     py = import_generated(tmp_path / "rung" / "python" / "rung_fsm.py", "rung_binary32")
     assert "_f32_int(c.n)" in (tmp_path / "rung" / "python" / "rung_fsm.py").read_text(encoding="utf-8")
     for n in (0, 7, -(2**24) - 1, 2**60 + 2**36 + 1, 2**60 + 2**36, -(2**63)):
-        assert py._f32_int(n) == SINGLE.of_int(n), n
+        assert py._f32_int(n) == SINGLE.of(n), n
 
 
 def _quiet(_: CheckOutcome) -> None:

@@ -84,15 +84,17 @@ class Format:
         ordered += 1 if toward > x else -1
         return float(_SINGLE.unpack(_BITS.pack(ordered if ordered >= 0 else -ordered | 0x80000000))[0])
 
-    def of_decimal(self, text: str) -> float:
-        """A decimal constant as a C compiler reads it into the format: rounded once, to nearest."""
-        exact = self.nearest(Fraction(text))
-        return math.copysign(math.inf, float(text)) if exact is None else float(exact)
+    @property
+    def smallest(self) -> float:
+        """The smallest positive subnormal."""
+        return float(Fraction(1, 2**-self.tiny))
 
-    def of_int(self, n: int) -> float:
-        """An int converted to the format, rounded once (as C converts an int64_t), not through binary64."""
-        exact = self.nearest(Fraction(n))
-        return math.copysign(math.inf, n) if exact is None else float(exact)
+    def of(self, value: Fraction | int) -> float:
+        """An exact number (an int, a decimal constant) as the code holds it in the format: rounded once, to
+        nearest, as C converts an `int64_t` and reads a constant (not through binary64); an infinity beyond the
+        largest value."""
+        exact = self.nearest(Fraction(value))
+        return math.copysign(math.inf, value) if exact is None else float(exact)
 
 
 def _floor_log2(magnitude: Fraction) -> int:
@@ -109,6 +111,7 @@ FORMATS: dict[Reals, Format] = {
     "binary64": Format("binary64", "double", 53, -1074, 1024),
     "binary32": Format("binary32", "float", 24, -149, 128),
 }
+BY_CTYPE = {f.ctype: f for f in FORMATS.values()}  # the format a C field of this type holds
 
 
 def shortest_single(value: float) -> str:

@@ -18,7 +18,7 @@ from mlca_verify.codegen.ir import MachineIR, build_ir
 from mlca_verify.codegen.lower import REAL_CTYPES, Lowering, names_of, real_literal
 from mlca_verify.codegen.render import Escaped, c_ident, render_template
 from mlca_verify.files import write_atomic
-from mlca_verify.floats import FORMATS
+from mlca_verify.floats import BY_CTYPE
 from mlca_verify.layout import Layout
 from mlca_verify.logic.results import Counterexample, Result
 from mlca_verify.model import Liveness, Machine, Output, Variable, observer_variables, prevs_of
@@ -40,8 +40,7 @@ def _value_c(value: object, ctype: str) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     if ctype in REAL_CTYPES and isinstance(value, int | float | Fraction):
-        fmt = next(f for f in FORMATS.values() if f.ctype == ctype)  # a float field takes a float constant
-        return real_literal(Fraction(value), fmt)
+        return real_literal(Fraction(value), BY_CTYPE[ctype])  # a float field takes a float constant
     return str(value)
 
 

@@ -56,7 +56,7 @@ def number(value: Fraction, reals: str = "binary64", real: bool = False) -> str:
     """A literal ECMAScript reads as the generated code's constant: an int as written, a real the nearest value of
     the machine's format (binary32's written as the binary64 that equals it)."""
     if reals == "binary32" and (real or value.denominator != 1):
-        return repr(float(FORMATS["binary32"].nearest(value) or 0))
+        return repr(FORMATS["binary32"].of(value))
     return str(value.numerator) if value.denominator == 1 else repr(float(value))
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from mlca_verify.codegen.tidy import tidy
-from mlca_verify.floats import FORMATS, Format, shortest_single
+from mlca_verify.floats import BY_CTYPE, FORMATS, Format, shortest_single
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -39,7 +39,7 @@ from mlca_verify.model import (
 
 INT_LIMIT = 2**31 - 1
 BINARY64 = FORMATS["binary64"]
-REAL_CTYPES = frozenset(f.ctype for f in FORMATS.values())  # a field of one of these C types holds a real
+REAL_CTYPES = frozenset(BY_CTYPE)  # a field of one of these C types holds a real
 
 
 def c_type(

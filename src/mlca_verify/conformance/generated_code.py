@@ -31,7 +31,7 @@ from mlca_verify.codegen.lower import REAL_CTYPES
 from mlca_verify.codegen.render import CERTIFIED_TEMPLATE, render_template
 from mlca_verify.conformance.c_tools import arm_flags, cppcheck_file, external_calls, library_calls, wp_file
 from mlca_verify.conformance.outcome import CheckOutcome, Suite
-from mlca_verify.floats import FORMATS
+from mlca_verify.floats import BY_CTYPE
 from mlca_verify.layout import Layout
 from mlca_verify.loading import import_generated
 from mlca_verify.logic.datachecks import check_data_machine, check_invariants
@@ -45,7 +45,6 @@ from mlca_verify.tools import C_FLAGS, run
 
 SANITIZE = ("-fsanitize=address,undefined,float-divide-by-zero", "-fno-sanitize-recover=all", "-g", "-O1")
 SEQUENCE_STEPS = 10_000
-SUBNORMAL = 5e-324
 
 # how far, relative to the larger, a real the code computes in binary64 may lie from the spec's exact value: the
 # exhaustive check and the generated test suites compare reals by it (binary64's unit roundoff is 1.1e-16)
@@ -175,14 +174,10 @@ def signal_values(low: float, high: float, ctype: str) -> list[float | int]:
     value of the field's C type (a float's neighbours and its smallest subnormal for binary32)."""
     if ctype not in REAL_CTYPES:
         return [int(low), int(high), int(low) - 1, int(high) + 1, (int(low) + int(high)) // 2]
-    if ctype == "float":
-        single = FORMATS["binary32"]
-        outside = [single.next_after(low, -math.inf), single.next_after(high, math.inf)]
-        middle, tiny = single.round((low + high) / 2), float(Fraction(1, 2**149))
-    else:
-        outside = [math.nextafter(low, -math.inf), math.nextafter(high, math.inf)]
-        middle, tiny = (low + high) / 2, SUBNORMAL
-    return [low, high, *outside, middle, 0.0, -0.0, math.nan, math.inf, -math.inf, tiny]
+    fmt = BY_CTYPE[ctype]
+    outside = [fmt.next_after(low, -math.inf), fmt.next_after(high, math.inf)]
+    middle = fmt.round((low + high) / 2)
+    return [low, high, *outside, middle, 0.0, -0.0, math.nan, math.inf, -math.inf, fmt.smallest]
 
 
 def _flags(ir: MachineIR) -> int:
@@ -236,10 +231,8 @@ def variable_values(ir: MachineIR, k: int) -> list[float | int]:
 
 
 def _value(text: str, ctype: str) -> float | int:
-    """A constant of the C code as Python holds it; a binary32 one (suffix `f`) as the float C reads."""
-    if ctype == "float":
-        return FORMATS["binary32"].of_decimal(text.removesuffix("f"))
-    return float(text) if ctype in REAL_CTYPES else int(text)
+    """A constant of the C code as Python holds it: a real one (a binary32 one with suffix `f`) as C reads it."""
+    return BY_CTYPE[ctype].of(Fraction(text.removesuffix("f"))) if ctype in REAL_CTYPES else int(text)
 
 
 def _mid(f: Any) -> float | int:
@@ -250,7 +243,7 @@ def _mid(f: Any) -> float | int:
 def _held(x: float | int, ctype: str) -> float | int:
     """A value as a field of the C type holds it: a binary32 field rounds a double (z3, the Python and the C are
     then all given the same value)."""
-    return FORMATS["binary32"].round(float(x)) if ctype == "float" else x
+    return BY_CTYPE[ctype].round(float(x)) if ctype in REAL_CTYPES else x
 
 
 def random_inputs(ir: MachineIR, rng: random.Random) -> Row:

@@ -65,10 +65,7 @@ class Binary64:
 
     def real(self, x: Value | Fraction) -> float:
         """`x` as the code holds it in its format: a float rounded, an int or a literal rounded once."""
-        if self.fmt.name == "binary64" or isinstance(x, float):
-            return self.fmt.round(float(x))
-        exact = self.fmt.nearest(Fraction(x))
-        return math.copysign(math.inf, x) if exact is None else float(exact)
+        return self.fmt.round(x) if isinstance(x, float) else self.fmt.of(x)
 
     def ev(self, e: Expr, env: Mapping[str, Value], mode: str) -> Value:
         if isinstance(e, Const):
