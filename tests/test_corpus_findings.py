@@ -239,13 +239,17 @@ when = "go"
     assert [show(found["output:busy#2"].expr), *map(show, found["output:busy#2"].given)] == ["n < 1 or n > 8", "not go"]
 
 
-def test_the_suites_expectations_follow_a_binary32_timer_as_the_code_holds_it(tmp_path: Path) -> None:
-    """The motor limiter's hot-winding timer counts 0.001 s a step in binary32. The generated suite carried each
-    step's context to the next as the nearest binary64, so its timer drifted from the float the code holds, and
-    after 20 steps it expected an invariant to hold that the code, holding 0.0200000014, says fails. The context
-    is now carried as the code's format holds it: the suite's verdict at every step is the code's."""
-    body = """
-reals = "binary32"
+@pytest.mark.parametrize("reals", ["binary32", "binary64"])
+def test_the_suites_expectations_follow_a_real_timer_as_the_code_holds_it(tmp_path: Path, reals: str) -> None:
+    """The motor limiter's hot-winding timer counts 0.001 s a step. The generated suite carried each step's
+    context to the next as the nearest binary64, so in binary32 its timer drifted from the float the code holds,
+    and after 20 steps it expected an invariant to hold that the code, holding 0.0200000014, says fails. The
+    context is now carried as the code's format holds it. In binary64 the suite added the exact 0.001 and
+    compared with the exact 0.02 (0.019999999999999997 against the code's 0.02000000000000001 >= 0.02): the
+    constants are now the format's too. The suite's verdict at every step is the code's."""
+    body = (
+        f'reals = "{reals}"'
+        + """
 [inputs]
 go = { doc = "go" }
 [params]
@@ -261,11 +265,12 @@ id = "early"
 expr = "t < LIMIT"
 expect = "violated"
 """
+    )
     spec = _spec(tmp_path, body)
     machine = load_spec(spec).machine
     steps = replay(machine, [(None, [{"go": False}] * 25)])[0]
     assert main(["gen", "--out", str(tmp_path / "gen"), str(spec)]) == 0
-    code = import_generated(tmp_path / "gen" / "python" / "k_fsm.py", "k_binary32_timer")
+    code = import_generated(tmp_path / "gen" / "python" / "k_fsm.py", f"k_{reals}_timer")
     ctx, inputs = code.Context(), code.Inputs(go=False)
     for k, expected in enumerate(steps):
         before = code.Context(**vars(ctx))

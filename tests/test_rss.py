@@ -34,7 +34,7 @@ PARAMS = (  # RHO, ACCEL_MAX, BRAKE_MIN, BRAKE_MAX: ad-rss-lib's defaults, then 
 
 def test_the_template_equals_ad_rss_lib_to_a_millimetre() -> None:
     machine = load_spec(TEMPLATE).machine
-    system = System(machine, (), (), frozenset(), False)
+    system = System(machine)
     names = ("RHO", "ACCEL_MAX", "BRAKE_MIN", "BRAKE_MAX")
     compared = 0
     for params, v_rear, v_front in itertools.product(PARAMS, SPEEDS, SPEEDS):

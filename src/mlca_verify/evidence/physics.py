@@ -85,7 +85,7 @@ def _value(m: Machine, system: System, d: Definition, params: tuple[float, ...],
 
 def agreement(m: Machine, d: Definition) -> Agreement:
     """The definition against ad-rss-lib, in the order of its two speed signals that agrees best."""
-    system = System(m, (), (), frozenset(), False)
+    system = System(m)
     pair = d.signals  # the two speed signals it reads (rss_definitions)
     assert len(pair) == 2
     grid = _grid(m, (pair[0], pair[1]))

@@ -270,7 +270,7 @@ def _apart(machine: Machine, cmp: Cmp, margin: Fraction, parametric: bool) -> bo
     """Do the operands of `cmp` stay more than `margin` apart for every valuation within the ranges?"""
     if any(isinstance(n, Prev) for n in nodes(cmp)):
         return False
-    system = System(machine, (), (), frozenset(), parametric)
+    system = System(machine, parametric=parametric)
     bools = {i.name: z3.Bool(own(f"in:{i.name}")) for i in machine.inputs}
     signals = {s.name: z3.Const(own(f"sig:{s.name}"), sort_of(s.type)) for s in machine.signals}
     variables = {v.name: z3.Const(own(f"var:{v.name}"), sort_of(v.type)) for v in machine.variables}

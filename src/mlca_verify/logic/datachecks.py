@@ -125,7 +125,7 @@ class DataChecker:
         """One system per distinct query shape: checks that need the same frame share its step template."""
         key = (m.otherwise, prevs, monitors, abstract, parametric)
         if key not in self._systems:
-            self._systems[key] = System(m, prevs, monitors, abstract, parametric)
+            self._systems[key] = System(m, prevs, monitors, abstract, parametric=parametric)
         return self._systems[key]
 
     def result(self, job: Job) -> Result:

@@ -39,7 +39,7 @@ class LemmaQuery:
 
 
 def query(machine: Machine, lemma: Lemma, parametric: bool, timeout_ms: int) -> LemmaQuery:
-    system = System(machine, (), (), frozenset(), parametric)
+    system = System(machine, parametric=parametric)
     bools = {i.name: z3.Bool(f"input!{i.name}") for i in machine.inputs}
     signals = {s.name: z3.Const(f"signal!{s.name}", sort_of(s.type)) for s in machine.signals}
     solver = z3.Solver()

@@ -20,6 +20,7 @@ from fractions import Fraction
 import z3
 from z3.z3 import _to_expr_ref
 
+from mlca_verify.floats import Format
 from mlca_verify.model import (
     Arith,
     BinOp,
@@ -162,9 +163,12 @@ class System:
         prevs: Iterable[Prev] = (),
         monitors: Iterable[Monitor] = (),
         abstract: Iterable[str] = (),
+        *,
         parametric: bool = False,
+        held: Format | None = None,
     ) -> None:
         self.m = machine
+        self.held = held
         self.prevs = list(dict.fromkeys(prevs))
         self.prev_index = {p: i for i, p in enumerate(self.prevs)}
         self.monitors = list(monitors)
@@ -193,6 +197,12 @@ class System:
 
     # --- constants -----------------------------------------------------------------------------------
 
+    def constant(self, value: Fraction, kind: Type) -> z3.ExprRef:
+        """A literal, a param's default, an initial value or a signal's bound: exact, or (`held`) a real as a
+        field or constant of the code's format holds it."""
+        rounded = self.held.nearest(value) if kind == "real" and self.held is not None else None
+        return value_of(value if rounded is None else rounded, kind)  # None: exact, or past the largest
+
     def frame(self, tag: str) -> Frame:
         m = self.m
         params: dict[str, z3.ExprRef] = {}
@@ -219,7 +229,7 @@ class System:
         if self.parametric:
             return frame.params
         if self._defaults is None:
-            self._defaults = {p.name: value_of(p.default, p.type) for p in self.m.params}
+            self._defaults = {p.name: self.constant(p.default, p.type) for p in self.m.params}
         return dict(self._defaults)
 
     def param_ranges(self, params: Mapping[str, z3.ExprRef]) -> z3.BoolRef:
@@ -237,7 +247,7 @@ class System:
 
     def init(self, f: Frame) -> z3.BoolRef:
         parts = [f.mode == self.states[self.m.initial], f.first]
-        parts += [f.variables[v.name] == value_of(v.initial, v.type) for v in self.m.variables]
+        parts += [f.variables[v.name] == self.constant(v.initial, v.type) for v in self.m.variables]
         parts += [c == 0 for c in f.counters.values()]
         parts.append(self.param_ranges(self.param_values(f)))
         return z3.And(*parts)
@@ -353,14 +363,14 @@ class System:
         low, high = self.signals[name].range
         kind = self.signals[name].type
         x = v.inputs.signals[name]
-        return z3.And(x >= value_of(low, kind), x <= value_of(high, kind))
+        return z3.And(x >= self.constant(low, kind), x <= self.constant(high, kind))
 
     def ev(self, expr: Expr, v: Valuation) -> z3.ExprRef:
         """The z3 term of `expr` at valuation `v`."""
         if isinstance(expr, Const):
             return z3.BoolVal(expr.value)
         if isinstance(expr, Num):
-            return value_of(expr.value, "real" if expr.real or expr.value.denominator != 1 else "int")
+            return self.constant(expr.value, "real" if expr.real or expr.value.denominator != 1 else "int")
         if isinstance(expr, Var):
             return self.name(expr.name, v)
         if isinstance(expr, StateIn):

@@ -78,11 +78,14 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
     the spec's step relation at a time, with the context before it and its inputs fixed. The context a step
     leaves is carried to the next as the code holds it: each real variable the value of the machine's format
     (binary64 or binary32) nearest z3's exact one, which is the code's own result where the update is one
-    operation. So each step's expectation is the spec's from the context the code is in, and rounding does not
-    pile up between the two over a run (a timer counting 0.001 a step holds in binary32 what the float code
-    holds, not the exact sum or its nearest binary64)."""
+    operation. The spec's real constants (literals, params' defaults, initial values, signals' bounds) are the
+    format's too, as the code's constants hold them. So each step's expectation is the spec's from the context
+    and with the constants the code has, and rounding does not pile up between the two over a run: a timer
+    counting 0.001 a step holds what the code holds (the format's 0.001 added and rounded), and reaches a
+    threshold of 0.02 at the step the code does, in binary64 as in binary32."""
     prevs = prevs_of(*(i.expr for i in machine.invariants), *(o.expr for o in machine.outputs))
-    system = System(machine, prevs)
+    fmt = FORMATS[machine.reals]
+    system = System(machine, prevs, held=fmt)
     stored = stored_registers(machine, prevs)
     pre, i, post = system.frame("r0"), system.inputs("r0"), system.frame("r1")
     link, terms = system.step(pre, i, post)
@@ -96,7 +99,6 @@ def replay(machine: Machine, runs: Sequence[Run]) -> list[list[Expected]]:
     for start, run in runs:
         context = first if start is None else dict(start)
         held: dict[str, z3.ExprRef] = {}
-        fmt = FORMATS[machine.reals]
         steps = []
         for sample in run:
             fixed = (_start(system, pre, context, held, fmt), *unkept(system, pre, i, stored))
