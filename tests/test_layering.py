@@ -19,10 +19,11 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "escape version words json_types floats",
         "errors",
         "files tools model layout",
+        "network",
         "intervals cli_base",
         "spec logic statechart",  # the loader and the engine: neither imports the other
         "diagram spec_diff",
-        "check_report waves codegen",
+        "check_report network_report waves codegen",
         "ci_formats loading",
         "conformance regression_tests",
         "testgen",

@@ -10,6 +10,7 @@ from mlca_verify.logic.equiv import EquivalenceResult, Region
 from mlca_verify.logic.property_diff import PropertyChange
 from mlca_verify.logic.results import Counterexample, Outcome, Result, Step
 from mlca_verify.spec_diff import TransitionChange, VerdictChange
+from mlca_verify.words import count
 
 CHECK_SCHEMA = "mlca-verify.check/2"
 CITE_WIDTH = 60
@@ -216,9 +217,8 @@ def results_text(
 def summary_text(results: Sequence[Result]) -> str:
     bad = [r for r in results if not r.ok]
     counts = {v: sum(1 for r in results if r.verdict == v) for v in ("holds", "violated", "unknown")}
-    line = (
-        f"{len(results)} properties: {counts['holds']} hold, {counts['violated']} violated, {counts['unknown']} unknown"
-    )
+    line = f"{count(len(results), 'property', 'properties')}: {counts['holds']} hold, "
+    line += f"{counts['violated']} violated, {counts['unknown']} unknown"
     reals = sum(1 for r in results if r.caveat)
     if reals:
         line += f" ({reals} over the reals only)"

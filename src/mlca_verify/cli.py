@@ -39,6 +39,7 @@ from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
+from mlca_verify.network_report import network_assumptions, network_results
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec_diff import transition_changes, verdict_changes
@@ -224,7 +225,7 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside) for p in args.specs]
+    loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside, network=True) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
     limits = Limits(depth=args.depth, timeout_ms=args.timeout_ms)
     missing: list[tuple[str, Loc, str]] = []
@@ -234,9 +235,11 @@ def cmd_check(args: argparse.Namespace) -> int:
                 say(f"{loc}: uncited {what}")
                 missing.append((spec.path, loc, what))
         results = _select(check_all(spec.machine, args.timeout_ms, args.parametric, limits), args.only)
+        results = results if spec.network is None else network_results(spec.network, results)
         checked.append((spec, results))
         if not args.quiet:
             assumed = [f"{a.id}: {show(a.expr)}" for a in spec.machine.assumptions]
+            assumed = assumed if spec.network is None else network_assumptions(spec.network)
             say(
                 check_report.results_text(
                     spec.path, spec.machine.name, results, spec.machine.input_names, assumed, reals=spec.machine.reals
@@ -304,6 +307,9 @@ def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path,
     for spec, results in checked:
         if spec.machine.semantics != "first-match":
             say(f"{spec.path}: no tests emitted: a nondeterministic machine has no generated code")
+            continue
+        if spec.network is not None:
+            say(f"{spec.path}: no tests emitted: a network's instances are tested through their own specs")
             continue
         try:
             written = emit(spec, results, generated, out)

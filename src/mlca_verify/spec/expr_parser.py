@@ -71,6 +71,11 @@ _TOKEN = re.compile(
     r"(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<num>[0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?)"
     r"|(?P<op><->|->|==|!=|<=|>=|[-+*/<>(){},])"
 )
+# In a network's properties a name may be qualified by an instance: `A.gap`, and `A.state == X`.
+_QUALIFIED = re.compile(
+    r"(?P<name>[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)?)|(?P<num>[0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?)"
+    r"|(?P<op><->|->|==|!=|<=|>=|[-+*/<>(){},])"
+)
 _KEYWORDS = {"and", "or", "not", "true", "false", "state", "in", "if", "then", "else", "prev"}
 _FUNCTIONS = {"min", "max", "abs", "valid"}
 _COMPARISONS = ("<", "<=", ">", ">=", "==", "!=")
@@ -78,13 +83,14 @@ MAX_EXPONENT = 300  # a literal's exponent: keeps exact arithmetic on it small
 MAX_DIGITS = 40  # a literal's digits: more than binary64 (17) or a 64-bit integer (19) can tell apart
 
 
-def tokenize(text: str) -> list[Token]:
+def tokenize(text: str, qualified: bool = False) -> list[Token]:
+    pattern = _QUALIFIED if qualified else _TOKEN
     if len(text) > MAX_LENGTH:
         raise ParseError(MAX_LENGTH, f"expression longer than {MAX_LENGTH} characters ({len(text)})")
     tokens: list[Token] = []
     pos = _skip_space(text, 0)
     while pos < len(text):
-        m = _TOKEN.match(text, pos)
+        m = pattern.match(text, pos)
         if m is None:
             raise ParseError(pos, f"unexpected character {text[pos]!r}")
         kind: TokenKind = "NAME" if m.group("name") else "NUM" if m.group("num") else "OP"
@@ -100,8 +106,8 @@ def _skip_space(text: str, pos: int) -> int:
 
 
 class _Parser:
-    def __init__(self, text: str) -> None:
-        self.tokens = tokenize(text)
+    def __init__(self, text: str, qualified: bool = False) -> None:
+        self.tokens = tokenize(text, qualified)
         self.pos = 0
         self.refs: list[NameRef] = []
         self.depth = 0
@@ -246,6 +252,8 @@ class _Parser:
             return Const(tok.text == "true")
         if tok.text == "state":
             return self.state_comparison(tok.offset)
+        if tok.text.endswith(".state"):
+            return self.state_comparison(tok.offset, tok.text[: -len("state")])
         self.refs.append(NameRef(tok.text, tok.offset, is_state=False))
         return self.mark(Var(tok.text), tok.offset)
 
@@ -293,27 +301,28 @@ class _Parser:
             return self.mark(Prev(args[0]), name.offset)
         return self.mark(Call(name.text, tuple(args)), name.offset)  # type: ignore[arg-type]
 
-    def state_comparison(self, at: int) -> Expr:
+    def state_comparison(self, at: int, instance: str = "") -> Expr:
+        """`state == X`, `!=` or `in {...}`; `A.state ...` in a network, its states named `A.X`."""
         if self.accept("=="):
-            return StateIn((self.state_name(at),))
+            return StateIn((self.state_name(at, instance),))
         if self.accept("!="):
-            return Not(StateIn((self.state_name(at),)))
+            return Not(StateIn((self.state_name(at, instance),)))
         if self.accept("in"):
             self.expect("{", "'{' after 'state in'")
-            names = [self.state_name(at)]
+            names = [self.state_name(at, instance)]
             while self.accept(","):
-                names.append(self.state_name(at))
+                names.append(self.state_name(at, instance))
             self.expect("}", "',' or '}'")
             return StateIn(tuple(names))
         raise ParseError(self.tok.offset, f"expected '==', '!=' or 'in' after 'state', found {self.describe()}")
 
-    def state_name(self, at: int) -> str:
+    def state_name(self, at: int, instance: str = "") -> str:
         tok = self.tok
-        if tok.kind != "NAME" or tok.text in _KEYWORDS:
+        if tok.kind != "NAME" or tok.text in _KEYWORDS or "." in tok.text:
             raise ParseError(tok.offset, f"expected a state name, found {self.describe()}")
         self.pos += 1
-        self.refs.append(NameRef(tok.text, tok.offset, is_state=True, state_offset=at))
-        return tok.text
+        self.refs.append(NameRef(instance + tok.text, tok.offset, is_state=True, state_offset=at))
+        return instance + tok.text
 
 
 @dataclass(frozen=True)
@@ -329,9 +338,10 @@ def parse_expr(text: str) -> tuple[Expr, list[NameRef]]:
     return parsed.expr, parsed.refs
 
 
-def parse_full(text: str) -> Parsed:
-    """Parse `text`, keeping where each node was written."""
-    parser = _Parser(text)
+def parse_full(text: str, qualified: bool = False) -> Parsed:
+    """Parse `text`, keeping where each node was written; with `qualified`, names may be qualified by an
+    instance (`A.gap`, `A.state == X`, whose state is then `A.X`), as a network's properties are."""
+    parser = _Parser(text, qualified)
     # Each nesting level passes through about a dozen grammar functions: leave room for MAX_DEPTH of them.
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20 * MAX_DEPTH + 1000))

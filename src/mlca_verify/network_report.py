@@ -1,0 +1,99 @@
+"""A network's verdicts in its own words: each instance's state and transitions by name, the channels'
+assumptions as sentences, and none of the flattening's own registers (see `network`)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+from mlca_verify.logic.results import Counterexample, Number, Outcome, Result
+from mlca_verify.model import show
+from mlca_verify.network import Channel, Network, Renamer, mode_of, qualified
+
+
+def own_element(name: str) -> bool:
+    """A name the flattening made (a mode variable, a transition number, a channel's register), not the spec."""
+    return "~" in name or name.endswith(".state")
+
+
+def modes_text(net: Network, values: Mapping[str, Number]) -> str:
+    """Each instance's state, by name: `A:CLAIM B:KEEP`."""
+    parts = []
+    for inst in net.instances:
+        index = values.get(mode_of(inst.name))
+        states = inst.machine.states
+        name = states[int(index)] if isinstance(index, int | float) and 0 <= index < len(states) else "?"
+        parts.append(f"{inst.name}:{name}")
+    return " ".join(parts)
+
+
+def fired_text(net: Network, definitions: Mapping[str, Number]) -> str | None:
+    """The transitions that fired in the step, by instance (`A.claim B.yield`); None when none did."""
+    fired = []
+    for inst in net.instances:
+        k = definitions.get(qualified(inst.name, "~fired"), 0)
+        if isinstance(k, int | float) and 1 <= k <= len(inst.machine.transitions):
+            fired.append(f"{inst.name}.{inst.machine.transitions[int(k) - 1].id}")
+    return " ".join(fired) or None
+
+
+def network_trace(net: Network, cx: Counterexample) -> Counterexample:
+    """A counterexample of the flat machine told in the network's words: the state column each instance's
+    state, the transition column what each instance fired, a channel's loss input as `<id> lost`, and none of
+    the flattening's own registers."""
+    initial = {mode_of(i.name): i.machine.states.index(i.machine.initial) for i in net.instances}
+    before: Mapping[str, Number] = initial
+    steps = []
+    for step in cx.steps:
+        after = step.variables
+        outcome = Outcome(fired_text(net, step.definitions), None, modes_text(net, after))
+        steps.append(
+            replace(
+                step,
+                state=modes_text(net, before),
+                outcome=outcome,
+                definitions={k: v for k, v in step.definitions.items() if not own_element(k)},
+                variables={k: v for k, v in after.items() if not own_element(k)},
+            )
+        )
+        before = after
+    return replace(cx, steps=tuple(steps))
+
+
+def network_assumptions(net: Network) -> list[str]:
+    """What every verdict assumes of the network, in its words: the schedule, each channel's delivery, and each
+    instance's own assumptions (over its qualified names)."""
+    lines = []
+    if net.schedule == "interleaved":
+        fair = f", each at least once in every {net.fairness} steps" if net.fairness else ""
+        lines.append(f"schedule: one instance steps at a time (signal ~turn: 0 is {net.instances[0].name}){fair}")
+    for ch in net.channels:
+        lines.append(f"{ch.id}: {ch.sender}.{ch.output} reaches {ch.receiver}.{ch.port} {_delivery(ch)}")
+    for inst in net.instances:
+        lines += [f"{inst.name}.{a.id}: {show(Renamer(inst.name, ()).expr(a.expr))}" for a in inst.machine.assumptions]
+    return lines
+
+
+def _delivery(ch: Channel) -> str:
+    if ch.latest == ch.delay:
+        when = "the next step" if ch.delay == 1 else f"{ch.delay} steps later"
+    else:
+        order = "in order" if ch.order == "fifo" else "in any order"
+        when = f"{ch.delay} to {ch.latest} steps later, {order} (signal {ch.id}~age)"
+    lost = f"; at most {ch.lost} lost in a row (input {ch.id}~lost)" if ch.lost else "; none lost"
+    return when + lost
+
+
+def network_results(net: Network, results: Sequence[Result]) -> list[Result]:
+    """The verdicts a network report shows: its own properties and the range and overflow checks of the
+    instances' elements, without the flat machine's own (its one state, the flattening's registers). The
+    instances' determinism, reachability and properties are their own specs' checks."""
+    shown = []
+    for r in results:
+        if r.kind in ("determinism", "completeness", "reachability", "dead-transition"):
+            continue
+        if r.kind in ("range", "overflow", "division") and own_element(r.prop.partition(":")[2]):
+            continue
+        cx = r.counterexample
+        shown.append(r if cx is None or cx.point else replace(r, counterexample=network_trace(net, cx)))
+    return shown

@@ -1,0 +1,272 @@
+"""Networks of machine instances: the loader, the flattening into one transition system, the engines' verdicts
+against a brute-force explorer of the network that steps each instance on its own, and the report."""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from mlca_verify.cli import main
+from mlca_verify.logic import check_all
+from mlca_verify.logic.replay64 import Binary64
+from mlca_verify.network import Network
+from mlca_verify.network_report import network_results
+from mlca_verify.spec import load_spec
+from tests.conftest import ROOT
+
+NETWORKS = ROOT / "tests" / "networks"
+CAR = (NETWORKS / "claim_car.toml").read_text(encoding="utf-8")
+PAIR = (NETWORKS / "claim_pair.toml").read_text(encoding="utf-8")
+
+
+def _pair(tmp_path: Path, text: str) -> Path:
+    (tmp_path / "claim_car.toml").write_text(CAR, encoding="utf-8")
+    path = tmp_path / "pair.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _channels(
+    delay: tuple[int, int], lost: tuple[int, int], extra: tuple[str, str] = ("", ""), schedule: str = ""
+) -> str:
+    """The pair with its two channels' delays, losses and other keys set, and the network's schedule."""
+    head, _, rest = PAIR.partition("[[channel]]")
+    body = ""
+    for (cid, src, dst), d, k, more in zip((("ab", "A", "B"), ("ba", "B", "A")), delay, lost, extra, strict=True):
+        body += f'[[channel]]\nid = "{cid}"\nfrom = "{src}.claiming"\nto = "{dst}.other_claims"\n'
+        body += f"delay = {d}\nlost = {k}\n{more}\n"
+    invariant = rest[rest.index("[[invariant]]") :].replace('expect = "violated"\n', "")
+    return head.replace("[network]\n", f"[network]\n{schedule}") + body + invariant
+
+
+# --- an explorer that shares nothing with the flattening or the solvers -----------------------------
+
+State = tuple[tuple[str, ...], tuple[tuple[bool, ...], ...], tuple[int, ...], tuple[int, ...], tuple[int, ...]]
+
+
+def explore(net: Network, bad: Callable[[dict[str, str]], bool], depth: int = 12) -> int | None:
+    """The fewest steps to a network state where `bad` holds (None: none within `depth`), by breadth-first search
+    over every free input, every loss, every message age and every turn the network allows, each instance stepped
+    by the code's own arithmetic (`replay64.Binary64`) on its own machine. A state: the modes, what each channel's
+    sender held after each step (newest last), messages lost in a row, the age delivered last, and the steps each
+    instance has sat out."""
+    sims = {i.name: Binary64(i.machine) for i in net.instances}
+    n = len(net.instances)
+    start: State = (
+        tuple(i.machine.initial for i in net.instances),
+        tuple(() for _ in net.channels),
+        tuple(0 for _ in net.channels),
+        tuple(c.latest for c in net.channels),
+        tuple(0 for _ in net.instances),
+    )
+    frontier, seen = [start], {start}
+    for step in range(1, depth + 1):
+        after = []
+        for state in frontier:
+            for nxt in _successors(net, sims, state, n):
+                if bad(dict(zip((i.name for i in net.instances), nxt[0], strict=True))):
+                    return step
+                if nxt not in seen:
+                    seen.add(nxt)
+                    after.append(nxt)
+        frontier = after
+    return None
+
+
+def _successors(net: Network, sims: dict[str, Binary64], state: State, n: int) -> list[State]:
+    modes, sent, runs, lasts, idle = state
+    ports = {(c.receiver, c.port) for c in net.channels}
+    free = [(i.name, p) for i in net.instances for p in i.machine.input_names if (i.name, p) not in ports]
+    turns = range(n) if net.schedule == "interleaved" else [None]
+    if net.fairness:
+        turns = [t for t in turns if all(idle[k] < net.fairness - 1 or k == t for k in range(n))]
+    per_channel = []
+    for k, c in enumerate(net.channels):
+        losses = [False, True] if c.lost and runs[k] < c.lost else [False]
+        ages = [a for a in range(c.delay, c.latest + 1) if c.order == "any" or a <= lasts[k] + 1]
+        per_channel.append([(lost, age) for lost in losses for age in ages])
+    found = []
+    for turn in turns:
+        for values in itertools.product((False, True), repeat=len(free)):
+            for choice in itertools.product(*per_channel):
+                heard = dict(zip(free, values, strict=True))
+                for k, (c, (lost, age)) in enumerate(zip(net.channels, choice, strict=True)):
+                    heard[(c.receiver, c.port)] = len(sent[k]) >= age and not lost and sent[k][-age]
+                new_modes = tuple(
+                    mode if turn is not None and turn != j else sims[inst.name].step(mode, {
+                        p: heard[(inst.name, p)] for p in inst.machine.input_names
+                    })[0]
+                    for j, (inst, mode) in enumerate(zip(net.instances, modes, strict=True))
+                )  # fmt: skip
+                found.append(_after(net, sims, state, new_modes, choice, turn))
+    return found
+
+
+def _after(net: Network, sims: dict[str, Binary64], state: State, new_modes: tuple[str, ...],
+           choice: tuple[tuple[bool, int], ...], turn: int | None) -> State:  # fmt: skip
+    _, sent, runs, _, idle = state
+    outputs = {
+        (inst.name, o.name): bool(sims[inst.name].ev(o.expr, {}, mode))
+        for inst, mode in zip(net.instances, new_modes, strict=True)
+        for o in inst.machine.outputs
+    }
+    keep = max(c.latest for c in net.channels)
+    return (
+        new_modes,
+        tuple((*h, outputs[(c.sender, c.output)])[-keep:] for h, c in zip(sent, net.channels, strict=True)),
+        tuple(r + 1 if lost else 0 for r, (lost, _) in zip(runs, choice, strict=True)),
+        tuple(age for _, age in choice),
+        tuple(0 if turn in (None, k) else min(i + 1, max(net.fairness - 1, 0)) for k, i in enumerate(idle)),
+    )
+
+
+def _both_move(modes: dict[str, str]) -> bool:
+    return modes["A"] == "MOVE" and modes["B"] == "MOVE"
+
+
+CONFIGURATIONS = [
+    ((1, 1), (0, 0), ("", ""), ""),
+    ((1, 1), (1, 0), ("", ""), ""),
+    ((1, 1), (1, 1), ("", ""), ""),
+    ((2, 1), (0, 0), ("", ""), ""),
+    ((2, 2), (0, 0), ("", ""), ""),
+    ((1, 3), (2, 0), ("", ""), ""),
+    ((1, 1), (0, 0), ("max_delay = 2\n", ""), ""),
+    ((1, 1), (0, 0), ("max_delay = 2\n", "max_delay = 3\n"), ""),
+    ((1, 1), (0, 0), ('max_delay = 3\norder = "any"\n', 'max_delay = 2\norder = "any"\n'), ""),
+    ((1, 2), (1, 0), ("max_delay = 2\n", "max_delay = 3\n"), ""),
+    ((1, 1), (0, 0), ("", ""), 'schedule = "interleaved"\n'),
+    ((1, 1), (1, 1), ("", ""), 'schedule = "interleaved"\nfairness = 2\n'),
+    ((2, 1), (0, 0), ("max_delay = 3\n", ""), 'schedule = "interleaved"\nfairness = 3\n'),
+]
+
+
+@pytest.mark.parametrize(("delay", "lost", "extra", "schedule"), CONFIGURATIONS)
+def test_the_engine_agrees_with_a_brute_force_explorer_of_the_network(
+    tmp_path: Path, delay: tuple[int, int], lost: tuple[int, int], extra: tuple[str, str], schedule: str
+) -> None:
+    """For each delay, loss, order and schedule of the two channels: the engine's verdict on the invariant, and
+    its counterexample's length, are those of an explorer that steps each car on its own."""
+    loaded = load_spec(_pair(tmp_path, _channels(delay, lost, extra, schedule)), network=True)
+    assert loaded.network is not None
+    shortest = explore(loaded.network, _both_move)
+    result = next(r for r in check_all(loaded.machine) if r.prop == "one-in-the-gap")
+    assert result.verdict == ("holds" if shortest is None else "violated"), (delay, lost, extra, schedule, shortest)
+    if shortest is not None:
+        assert result.counterexample is not None
+        assert len(result.counterexample.steps) == shortest
+
+
+def test_the_configurations_exercise_both_verdicts(tmp_path: Path) -> None:
+    """The explorer's answers over the configurations above are not all alike (the comparison can fail)."""
+    answers = set()
+    for delay, lost, extra, schedule in CONFIGURATIONS:
+        loaded = load_spec(_pair(tmp_path, _channels(delay, lost, extra, schedule)), network=True)
+        assert loaded.network is not None
+        answers.add(explore(loaded.network, _both_move))
+    assert None in answers and len(answers) >= 3, answers
+
+
+def test_losses_and_delays_decide_the_verdict(tmp_path: Path) -> None:
+    """Reliable channels a step late keep the cars apart; one lost claim each, or a claim two steps late, does not."""
+    verdicts = {}
+    for delay, lost in (((1, 1), (0, 0)), ((1, 1), (1, 1)), ((2, 2), (0, 0)), ((1, 1), (1, 0))):
+        loaded = load_spec(_pair(tmp_path, _channels(delay, lost)), network=True)
+        verdicts[(delay, lost)] = next(r.verdict for r in check_all(loaded.machine) if r.prop == "one-in-the-gap")
+    assert verdicts == {
+        ((1, 1), (0, 0)): "holds",
+        ((1, 1), (1, 1)): "violated",
+        ((2, 2), (0, 0)): "violated",
+        ((1, 1), (1, 0)): "holds",  # B always hears A's claim... and A B's: A yields whenever B claims
+    }
+
+
+def test_the_report_tells_the_counterexample_in_the_networks_words(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["check", str(NETWORKS / "claim_pair.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "ab: A.claiming reaches B.other_claims the next step; at most 1 lost in a row (input ab~lost)" in out
+    rows = [line.split() for line in out.splitlines() if line.strip().startswith(("1 ", "2 "))]
+    assert rows[0][1:3] == ["A:KEEP", "B:KEEP"] and rows[0][-4:] == ["A.claim", "B.claim", "A:CLAIM", "B:CLAIM"]
+    assert rows[1][1:3] == ["A:CLAIM", "B:CLAIM"] and rows[1][-4:] == ["A.move", "B.move", "A:MOVE", "B:MOVE"]
+    assert rows[1][7:9] == ["1", "1"]  # both claims lost
+    assert "~fired" not in out and "determinism" not in out and "reach:" not in out
+    assert out.rstrip().endswith("1 property: 0 hold, 1 violated, 0 unknown; all as expected")
+
+
+def test_the_report_keeps_the_instances_range_checks_and_drops_the_flat_machines_own() -> None:
+    loaded = load_spec(NETWORKS / "claim_pair.toml", network=True)
+    assert loaded.network is not None
+    flat = check_all(loaded.machine)
+    assert {r.prop for r in flat} >= {"determinism", "reach:NETWORK", "range:A.state", "range:ab~run"}
+    assert [r.prop for r in network_results(loaded.network, flat)] == ["one-in-the-gap"]
+
+
+def test_param_overrides_reach_the_instance(tmp_path: Path) -> None:
+    (tmp_path / "timer.toml").write_text(
+        '[machine]\nname = "T"\ninitial = "A"\nstates = ["A", "B"]\n[inputs]\ngo = { doc = "unused" }\n'
+        '[params]\nN = { type = "int", default = 3, range = [1, 10], doc = "steps" }\n'
+        '[variables]\nt = { type = "int", initial = 0, range = [0, 10], every = "min(t + 1, 10)", doc = "t" }\n'
+        '[outputs]\ndone = { type = "bool", expr = "state == B", doc = "done" }\n'
+        '[[transition]]\nfrom = "A"\nto = "B"\nwhen = "t >= N"\n',
+        encoding="utf-8",
+    )
+    net = tmp_path / "net.toml"
+    net.write_text(
+        '[network]\nname = "N"\n[instances.X]\nspec = "timer.toml"\nparams = { N = 5 }\n'
+        '[instances.Y]\nspec = "timer.toml"\n'
+        '[[invariant]]\nid = "x-after-y"\nexpr = "X.state == B -> Y.state == B"\n'
+        '[[invariant]]\nid = "y-after-x"\nexpr = "Y.state == B -> X.state == B"\nexpect = "violated"\n',
+        encoding="utf-8",
+    )
+    loaded = load_spec(net, network=True)
+    assert {p.name: p.default for p in loaded.machine.params} == {"X.N": 5, "Y.N": 3}
+    found = {r.prop: r for r in check_all(loaded.machine)}
+    assert found["x-after-y"].verdict == "holds"
+    cx = found["y-after-x"].counterexample
+    assert found["y-after-x"].verdict == "violated" and cx is not None and len(cx.steps) == 4
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (("lost = 1", "lost = -1"), "pair.toml:21:8: error: 'lost' must be from 0 to 100 messages in a row, got -1"),
+        (('from = "A.claiming"', 'from = "C.claiming"'), "pair.toml:19:8: error: 'C.claiming' must be"),
+        (('from = "A.claiming"', 'from = "A.want"'), "pair.toml:19:8: error: 'A.want' is not an output (Car's"),
+        (('to = "B.other_claims"', 'to = "A.other_claims"'), "pair.toml:27:6: error: 'A.other_claims' is fed by"),
+        (("A.state == MOVE and", "A.state == MOVED and"), "pair.toml:33:25: error: unknown state 'A.MOVED'"),
+        (("B.state == MOVE)", "B.speed > 1)"), "pair.toml:33:34: error: unknown name 'B.speed' in invariant"),
+        (('spec = "claim_car.toml"', 'spec = "nowhere.toml"'), "pair.toml:10:8: error: instance's spec 'nowhere"),
+        (
+            ("[instances.B]", "[instances.B]\nparams = { T = 1 }"),
+            "pair.toml:14:16: error: 'T' is not a param of Car (none)",
+        ),
+        (
+            ("[network]", "[network]\nsteps = 3"),
+            "pair.toml:5:9: error: unknown key 'steps' (allowed: cite, doc, fairness, name, schedule)",
+        ),
+    ],
+)
+def test_a_mistake_in_a_network_is_one_line_at_its_place(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], change: tuple[str, str], message: str
+) -> None:
+    old, new = change
+    assert old in PAIR
+    path = _pair(tmp_path, PAIR.replace(old, new, 1))
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert err.replace(str(tmp_path) + "/", "").startswith(message), err
+
+
+def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["gen", "--out", str(tmp_path / "gen"), str(NETWORKS / "claim_pair.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("a network spec: `check` decides it; the other commands take a machine spec"), err
+    assert not (tmp_path / "gen").exists()
