@@ -4,10 +4,14 @@
 each instance's mode an int variable `<instance>.state`, each name of an instance qualified (`A.gap`), and each
 channel a few variables, inputs and assumptions of its own (named with a `~`, which no spec name holds):
 
-- the instances step together (the synchronous schedule), each by its own first-match rule;
+- the instances step together (`synchronous`), each by its own first-match rule; or (`interleaved`) one at a
+  time, the one an int signal `~turn` names, each at least once in every `fairness` steps when that is given;
 - a channel carries an output of one instance, read over its context alone (state, variables, params), to a
   boolean input or a signal of another. What the sender holds after step k reaches the receiver at step
-  k + `delay` (delay 1: the next step). Before the first message arrives the receiver reads nothing;
+  k + `delay` (delay 1: the next step), or, with `max_delay`, at any step from k + `delay` to k + `max_delay`
+  that the environment chooses (a signal `<channel>~age`): in order (`fifo`: never older than the message read
+  the step before, which may be read again) or in any order. Before the first message arrives the receiver
+  reads nothing;
 - with `lost = K`, any message may be lost, at most K in a row (an `[[assume]]` over a loss input and a
   counter); nothing read is false for a boolean input and an invalid sample (outside its range) for a signal,
   which the receiver's own `if_invalid` rules then handle.
@@ -295,7 +299,8 @@ def _pipeline(ch: Channel, output: Output, sent: Expr, parts: _Parts) -> dict[in
             )
         )  # fmt: skip
         by_age[k + 1] = Var(name)
-    return {a: (Cmp("==", m, _int(1)) if flag else m) for a, m in by_age.items() if a >= ch.delay}
+    by_age[1] = sent  # read as the sender's output itself
+    return {a: (Cmp("==", m, _int(1)) if flag and a > 1 else m) for a, m in by_age.items() if a >= ch.delay}
 
 
 def _age(ch: Channel, parts: _Parts) -> Expr:
