@@ -94,7 +94,8 @@ def _successors(net: Network, sims: dict[str, Binary64], state: State, n: int) -
             for choice in itertools.product(*per_channel):
                 heard = dict(zip(free, values, strict=True))
                 for k, (c, (lost, age)) in enumerate(zip(net.channels, choice, strict=True)):
-                    heard[(c.receiver, c.port)] = len(sent[k]) >= age and not lost and sent[k][-age]
+                    got = len(sent[k]) >= age and not lost and sent[k][-age]
+                    heard[(c.receiver, c.port)] = heard.get((c.receiver, c.port), False) or got
                 new_modes = tuple(
                     mode if turn is not None and turn != j else sims[inst.name].step(mode, {
                         p: heard[(inst.name, p)] for p in inst.machine.input_names
@@ -237,7 +238,10 @@ def test_param_overrides_reach_the_instance(tmp_path: Path) -> None:
         (("lost = 1", "lost = -1"), "pair.toml:21:8: error: 'lost' must be from 0 to 100 messages in a row, got -1"),
         (('from = "A.claiming"', 'from = "C.claiming"'), "pair.toml:19:8: error: 'C.claiming' must be"),
         (('from = "A.claiming"', 'from = "A.want"'), "pair.toml:19:8: error: 'A.want' is not an output (Car's"),
-        (('to = "B.other_claims"', 'to = "A.other_claims"'), "pair.toml:27:6: error: 'A.other_claims' is fed by"),
+        (
+            ("lost = 1", 'lost = 1\norder = "lifo"'),
+            "pair.toml:22:9: error: 'order' must be one of fifo, any, got 'lifo'",
+        ),
         (("A.state == MOVE and", "A.state == MOVED and"), "pair.toml:33:25: error: unknown state 'A.MOVED'"),
         (("B.state == MOVE)", "B.speed > 1)"), "pair.toml:33:34: error: unknown name 'B.speed' in invariant"),
         (('spec = "claim_car.toml"', 'spec = "nowhere.toml"'), "pair.toml:10:8: error: instance's spec 'nowhere"),
@@ -293,3 +297,34 @@ def test_the_networks_guide_tells_what_each_channel_does(tmp_path: Path) -> None
         result = next(r for r in check_all(loaded.machine) if r.prop == "one-in-the-gap")
         said = "holds" if result.counterexample is None else f"violated in {len(result.counterexample.steps)} steps"
         assert rows[label] == said, label
+
+
+def _mesh(lost: int, delay: int) -> str:
+    """Three cars, each hearing the other two on its one input (the channels into it heard together)."""
+    text = '[network]\nname = "Mesh"\n'
+    for car in "ABC":
+        text += f'[instances.{car}]\nspec = "claim_car.toml"\n'
+    for src, dst in itertools.permutations("ABC", 2):
+        text += f'[[channel]]\nid = "{src}{dst}"\nfrom = "{src}.claiming"\nto = "{dst}.other_claims"\n'
+        text += f"delay = {delay}\nlost = {lost}\n"
+    pairs = " or ".join(f"({a}.state == MOVE and {b}.state == MOVE)" for a, b in itertools.combinations("ABC", 2))
+    return text + f'[[invariant]]\nid = "one-in-the-gap"\nexpr = "not ({pairs})"\n'
+
+
+@pytest.mark.parametrize(("lost", "delay"), [(0, 1), (1, 1), (0, 2)])
+def test_three_cars_hearing_each_other_on_one_input_agree_with_the_explorer(
+    tmp_path: Path, lost: int, delay: int
+) -> None:
+    loaded = load_spec(_pair(tmp_path, _mesh(lost, delay)), network=True)
+    assert loaded.network is not None
+
+    def two_move(modes: dict[str, str]) -> bool:
+        return sum(m == "MOVE" for m in modes.values()) >= 2
+
+    shortest = explore(loaded.network, two_move, depth=8)
+    result = next(r for r in check_all(loaded.machine) if r.prop == "one-in-the-gap")
+    assert result.verdict == ("holds" if shortest is None else "violated"), (lost, delay, shortest)
+    assert shortest is None or (result.counterexample is not None and len(result.counterexample.steps) == shortest)
+    assert [a.id for a in loaded.machine.assumptions if a.id.endswith("~hears")] == [
+        "B.other_claims~hears", "C.other_claims~hears", "A.other_claims~hears"
+    ]  # fmt: skip

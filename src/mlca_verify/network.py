@@ -7,7 +7,8 @@ channel a few variables, inputs and assumptions of its own (named with a `~`, wh
 - the instances step together (`synchronous`), each by its own first-match rule; or (`interleaved`) one at a
   time, the one an int signal `~turn` names, each at least once in every `fairness` steps when that is given;
 - a channel carries an output of one instance, read over its context alone (state, variables, params), to a
-  boolean input or a signal of another. What the sender holds after step k reaches the receiver at step
+  boolean input (several channels into one are heard together: their disjunction) or a signal of another
+  (one channel). What the sender holds after step k reaches the receiver at step
   k + `delay` (delay 1: the next step), or, with `max_delay`, at any step from k + `delay` to k + `max_delay`
   that the environment chooses (a signal `<channel>~age`): in order (`fifo`: never older than the message read
   the step before, which may be read again) or in any order. Before the first message arrives the receiver
@@ -23,7 +24,7 @@ receiver's definitions, `valid()` and invalid samples keep their meaning unchang
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Literal
 
@@ -190,6 +191,7 @@ class _Parts:
     definitions: list[Definition]
     outputs: list[Output]
     assumptions: list[Assumption]
+    heard: dict[str, list[tuple[Channel, Expr]]] = field(default_factory=dict)  # a boolean input: its channels
 
 
 def _instance(inst: Instance, parts: _Parts, turn: Expr | None) -> None:
@@ -271,14 +273,28 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
         else _ite_chain([(Cmp("==", age, _int(a)), m) for a, m in ages.items()], ages[ch.latest])
     )
     arrived = _arrived(ch, age, parts)
-    port = Var(qualified(ch.receiver, ch.port))
-    signal = next((s for s in receiver.signals if s.name == ch.port), None)
-    if signal is None:
-        tie: Expr = BinOp("<->", port, BinOp("and", arrived, value))
+    port = qualified(ch.receiver, ch.port)
+    if any(s.name == ch.port for s in receiver.signals):
+        tie = Ite(arrived, Cmp("==", Var(port), value), Not(Call("valid", (Var(port),))))
+        parts.assumptions.append(
+            Assumption(f"{ch.id}~delivers", tie, f"what channel {ch.id} delivers", ch.cite, ch.loc)
+        )
     else:
-        invalid = Not(Call("valid", (port,)))
-        tie = Ite(arrived, Cmp("==", port, value), invalid)
-    parts.assumptions.append(Assumption(f"{ch.id}~delivers", tie, f"what channel {ch.id} delivers", ch.cite, ch.loc))
+        parts.heard.setdefault(port, []).append((ch, BinOp("and", arrived, value)))
+
+
+def _hear(parts: _Parts) -> None:
+    """Each boolean input fed by channels: true when one of them delivers true (several channels into one input
+    are heard together, as a radio hears every sender)."""
+    for port, feeds in parts.heard.items():
+        heard = feeds[0][1]
+        for _, more in feeds[1:]:
+            heard = BinOp("or", heard, more)
+        ch = feeds[0][0]
+        ids = ", ".join(c.id for c, _ in feeds)
+        parts.assumptions.append(
+            Assumption(f"{port}~hears", BinOp("<->", Var(port), heard), f"what {port} hears ({ids})", ch.cite, ch.loc)
+        )
 
 
 def _pipeline(ch: Channel, output: Output, sent: Expr, parts: _Parts) -> dict[int, Expr]:
@@ -373,6 +389,7 @@ def flatten(net: Network) -> Machine:
         _instance(inst, parts, turn)
     for ch in net.channels:
         _channel(net, ch, parts)
+    _hear(parts)
     no_transitions: tuple[Transition, ...] = ()
     return Machine(
         name=net.name,

@@ -211,8 +211,9 @@ class NetworkLoader:
             sender, output = self.end((*path, "from"), item["from"], machines)
             receiver, port = self.end((*path, "to"), item["to"], machines)
             self.ends(path, (machines[sender], output), (machines[receiver], port), item)
-            if (other := fed.get(item["to"])) is not None:
-                raise self.fail((*path, "to"), f"'{item['to']}' is fed by channel '{other}' already")
+            signal = any(s.name == port for s in machines[receiver].signals)
+            if signal and (other := fed.get(item["to"])) is not None:
+                raise self.fail((*path, "to"), f"signal '{item['to']}' is fed by channel '{other}' already")
             fed[item["to"]] = item["id"]
             delay, lost = item.get("delay", 1), item.get("lost", 0)
             if not 1 <= delay <= MAX_DELAY:
