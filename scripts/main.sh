@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up, then run the main job on the shipped specs:
 #   1. prove every property of the canonical machine, the repair, MLCA-T (the whole decision function) and the
-#      paper's other two readings;
+#      paper's other two readings, and of the V2V protocols and their networks of AVs (spec/v2v, out/check_v2v.json);
 #   2. generate the Python and C99 code of the three deterministic machines into generated/;
 #   3. prove and test that code against its spec (compilers, exhaustive comparison, Frama-C WP, cppcheck,
 #      the Cortex-M4 cross build, sanitizers; MLCA-T's bit for bit against z3's semantics, its WP without the monitor);
@@ -22,6 +22,7 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 mkdir -p out
 .venv/bin/mlca-verify check spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml spec/paper/*.toml --json out/check.json
+.venv/bin/mlca-verify check spec/v2v/*.toml --quiet --json out/check_v2v.json
 .venv/bin/mlca-verify gen spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml
 .venv/bin/mlca-verify conform spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml --json out/conform.json
 .venv/bin/mlca-verify tests spec/mlca.toml spec/mlca_r.toml spec/mlca_t.toml --out out/tests
@@ -32,5 +33,5 @@ rm -f out/sim.sqlite  # made anew: a database of an older layout is refused, and
 .venv/bin/mlca-verify evidence spec/mlca_r.toml --db out/sim.sqlite --out out/evidence
 .venv/bin/mlca-sim replay out/check.json --json out/replay.json
 .venv/bin/mlca-verify evidence spec/mlca_t.toml --db out/sim.sqlite --replay out/replay.json --out out/evidence_t
-echo "main: reports in out/check.json, out/conform.json, out/tests/, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
+echo "main: reports in out/check.json, out/check_v2v.json, out/conform.json, out/tests/, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
     "out/evidence/ and out/evidence_t/ (open out/evidence/index.html)"

@@ -251,7 +251,7 @@ def test_param_overrides_reach_the_instance(tmp_path: Path) -> None:
         ),
         (
             ("[network]", "[network]\nsteps = 3"),
-            "pair.toml:5:9: error: unknown key 'steps' (allowed: cite, doc, fairness, name, schedule)",
+            "pair.toml:5:9: error: unknown key 'steps' (allowed: cite, doc, fairness, name, schedule, timeout_ms)",
         ),
     ],
 )
@@ -328,3 +328,11 @@ def test_three_cars_hearing_each_other_on_one_input_agree_with_the_explorer(
     assert [a.id for a in loaded.machine.assumptions if a.id.endswith("~hears")] == [
         "B.other_claims~hears", "C.other_claims~hears", "A.other_claims~hears"
     ]  # fmt: skip
+
+
+def test_the_networks_guide_shows_the_pair_as_it_is() -> None:
+    """The guide's network spec is tests/networks/claim_pair.toml, its comments aside."""
+    guide = (ROOT / "docs" / "guides" / "networks.md").read_text(encoding="utf-8")
+    shown = guide.split("```toml\n", 1)[1].split("```", 1)[0]
+    body = "".join(line for line in PAIR.splitlines(keepends=True) if not line.startswith("#")).lstrip("\n")
+    assert shown == body

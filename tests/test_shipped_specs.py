@@ -9,7 +9,10 @@ from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 
-SHIPPED = sorted(str(p.relative_to(ROOT)) for p in ROOT.glob("spec/**/*.toml"))
+SHIPPED = sorted(
+    str(p.relative_to(ROOT)) for p in ROOT.glob("spec/**/*.toml") if "[network]" not in p.read_text(encoding="utf-8")
+)  # the machine specs (the networks of spec/v2v: tests/test_v2v.py)
+DECIDED_HERE = [p for p in SHIPPED if not p.startswith("spec/v2v/")]  # spec/v2v's: tests/test_v2v.py
 
 
 def load(path: str) -> Machine:
@@ -24,7 +27,7 @@ def test_every_element_cites_the_paper(path: str) -> None:
         assert element.cite.strip(), element
 
 
-@pytest.mark.parametrize("path", SHIPPED)
+@pytest.mark.parametrize("path", DECIDED_HERE)
 def test_every_verdict_is_as_expected(path: str) -> None:
     bad = [r.prop for r in check_all(load(path)) if not r.ok]
     assert bad == []

@@ -11,6 +11,7 @@ import json
 import os
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,7 @@ from mlca_verify.escape import terminal
 from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.json_types import JsonObject
 from mlca_verify.logic import check_all, equivalence
+from mlca_verify.logic.datachecks import check_declared
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
@@ -224,6 +226,16 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
     return [r for r in results if r.prop in wanted]
 
 
+def _check(spec: LoadedSpec, timeout_ms: int, parametric: bool, limits: Limits) -> list[Result]:
+    """Every verdict of a machine; a network's own properties (its instances' built-in checks are their own
+    specs': a network's runs are runs of each instance, within its assumptions)."""
+    if spec.network is None:
+        return check_all(spec.machine, timeout_ms, parametric, limits)
+    ids = {p.id for p in spec.network.invariants} | {p.id for p in spec.network.liveness}
+    budget = replace(limits, timeout_ms=max(limits.timeout_ms, spec.network.timeout_ms))
+    return network_results(spec.network, check_declared(spec.machine, budget, ids, parametric))
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside, network=True) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
@@ -234,8 +246,7 @@ def cmd_check(args: argparse.Namespace) -> int:
             for loc, what in uncited(spec.machine):
                 say(f"{loc}: uncited {what}")
                 missing.append((spec.path, loc, what))
-        results = _select(check_all(spec.machine, args.timeout_ms, args.parametric, limits), args.only)
-        results = results if spec.network is None else network_results(spec.network, results)
+        results = _select(_check(spec, args.timeout_ms, args.parametric, limits), args.only)
         checked.append((spec, results))
         if not args.quiet:
             assumed = [f"{a.id}: {show(a.expr)}" for a in spec.machine.assumptions]

@@ -124,6 +124,7 @@ class Network:
     loc: Loc = IN_MEMORY
     schedule: Schedule = "synchronous"
     fairness: int = 0  # interleaved: each instance steps at least once in every `fairness` steps (0: no bound)
+    timeout_ms: int = 0  # the solver budget its proofs need, as `check --timeout-ms` (0: the command's)
 
     def instance(self, name: str) -> Instance:
         return next(i for i in self.instances if i.name == name)

@@ -39,8 +39,9 @@ def fired_text(net: Network, definitions: Mapping[str, Number]) -> str | None:
 
 def network_trace(net: Network, cx: Counterexample) -> Counterexample:
     """A counterexample of the flat machine told in the network's words: the state column each instance's
-    state, the transition column what each instance fired, a channel's loss input as `<id> lost`, and none of
-    the flattening's own registers."""
+    state, the transition column what each instance fired, the inputs (a message lost: `<channel>~lost`), the
+    signals (a message's age: `<channel>~age`; the instance that stepped: `~turn`), the variables and outputs,
+    and neither the instances' definitions (derived from those) nor the flattening's own registers."""
     initial = {mode_of(i.name): i.machine.states.index(i.machine.initial) for i in net.instances}
     before: Mapping[str, Number] = initial
     steps = []
@@ -52,7 +53,7 @@ def network_trace(net: Network, cx: Counterexample) -> Counterexample:
                 step,
                 state=modes_text(net, before),
                 outcome=outcome,
-                definitions={k: v for k, v in step.definitions.items() if not own_element(k)},
+                definitions={},  # the instances' own, derived from the rest: a network's trace is its messages
                 variables={k: v for k, v in after.items() if not own_element(k)},
             )
         )

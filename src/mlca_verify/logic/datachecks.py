@@ -656,10 +656,21 @@ def check_data_machine(machine: Machine, limits: Limits, parametric: bool = Fals
 
 def check_invariants(machine: Machine, limits: Limits, ids: Collection[str], parametric: bool = False) -> list[Result]:
     """The invariants `ids` alone (after the division checks they may rest on)."""
+    return check_declared(machine, limits, ids, parametric, kinds=("invariant",))
+
+
+def check_declared(
+    machine: Machine,
+    limits: Limits,
+    ids: Collection[str],
+    parametric: bool = False,
+    kinds: Collection[str] = ("invariant", "liveness"),
+) -> list[Result]:
+    """The declared properties `ids` alone, in report order (after the division checks they may rest on)."""
     checker = DataChecker(machine, limits, parametric)
     jobs = checker.jobs()
     checker.divisions(jobs)
-    return [checker.result(job) for job in jobs if job.kind == "invariant" and job.prop in ids]
+    return [checker.result(job) for job in jobs if job.kind in kinds and job.prop in ids]
 
 
 def completeness(machine: Machine, limits: Limits) -> Verdict:

@@ -47,9 +47,10 @@ MAX_INSTANCES = 8
 MAX_CHANNELS = 64
 MAX_PROPERTIES = 500
 MAX_WITHIN = 10_000
+MAX_TIMEOUT_MS = 600_000
 VERDICTS = ("holds", "violated", "unknown")
 TABLES = {
-    "network": {"name", "schedule", "fairness", "doc", "cite"},
+    "network": {"name", "schedule", "fairness", "timeout_ms", "doc", "cite"},
     "instances": {"spec", "params", "doc", "cite"},
     "channel": {"id", "from", "to", "delay", "max_delay", "order", "lost", "doc", "cite"},
     "invariant": {"id", "expr", "expect", "doc", "cite"},
@@ -106,7 +107,7 @@ class NetworkLoader:
             if key == "params":
                 if not isinstance(value, dict):
                     raise self.fail((*path, key), "'params' must be a table of numbers")
-            elif key in ("delay", "max_delay", "lost", "fairness"):
+            elif key in ("delay", "max_delay", "lost", "fairness", "timeout_ms"):
                 if not isinstance(value, int) or isinstance(value, bool):
                     raise self.fail((*path, key), f"'{key}' must be an integer")
             elif key == "within":
@@ -129,9 +130,15 @@ class NetworkLoader:
         instances = tuple(self.instance(name, body) for name, body in self.doc["instances"].items())
         channels = self.channels({i.name: i.machine for i in instances})
         schedule, fairness = self.schedule(len(instances))
+        budget = net.get("timeout_ms", 0)
+        if not 0 <= budget <= MAX_TIMEOUT_MS:
+            raise self.fail(
+                ("network", "timeout_ms"), f"'timeout_ms' must be from 0 to {MAX_TIMEOUT_MS:,}, got {budget}"
+            )
         skeleton = Network(
-            net["name"], instances, channels, loc=self.where.loc(("network",)), schedule=schedule, fairness=fairness
-        )
+            net["name"], instances, channels, loc=self.where.loc(("network",)), schedule=schedule, fairness=fairness,
+            timeout_ms=budget,
+        )  # fmt: skip
         flat = self.flatten(skeleton)
         self.env = _symbols(flat)
         self.states = {f"{i.name}.{s}": (i.name, i.machine.states) for i in instances for s in i.machine.states}
