@@ -336,3 +336,24 @@ def test_the_networks_guide_shows_the_pair_as_it_is() -> None:
     shown = guide.split("```toml\n", 1)[1].split("```", 1)[0]
     body = "".join(line for line in PAIR.splitlines(keepends=True) if not line.startswith("#")).lstrip("\n")
     assert shown == body
+
+
+def test_a_response_over_a_network_is_decided_and_its_lasso_told_in_its_words(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two cars that always yield to each other's claim can yield forever (a lasso of two steps); with the other
+    car not wanting the gap, A moves within 4 steps."""
+    text = PAIR.split("[[invariant]]")[0].replace("lost = 1\n", "")
+    text += '[[liveness]]\nid = "a-moves"\nassume = "A.want"\ngoal = "A.state == MOVE"\nexpect = "violated"\n'
+    text += (
+        '[[liveness]]\nid = "a-moves-alone"\nassume = "A.want and not B.want"\ngoal = "A.state == MOVE"\nwithin = 4\n'
+    )
+    assert main(["check", str(_pair(tmp_path, text))]) == 0
+    out = capsys.readouterr().out
+    assert (
+        "a-moves violated: the assumption holds forever and the goal never does: the run loops through A:KEEP B:KEEP"
+        in out
+    )
+    assert "A.claim B.claim" in out and "A.yield B.yield" in out and "(steps 2..3 repeat forever)" in out
+    assert "NETWORK" not in out
+    assert out.rstrip().endswith("2 properties: 1 hold, 1 violated, 0 unknown; all as expected")

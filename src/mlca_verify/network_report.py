@@ -8,7 +8,7 @@ from dataclasses import replace
 
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Result
 from mlca_verify.model import show
-from mlca_verify.network import Channel, Network, Renamer, mode_of, qualified
+from mlca_verify.network import NETWORK_STATE, Channel, Network, Renamer, mode_of, qualified
 
 
 def own_element(name: str) -> bool:
@@ -96,5 +96,12 @@ def network_results(net: Network, results: Sequence[Result]) -> list[Result]:
         if r.kind in ("range", "overflow", "division") and own_element(r.prop.partition(":")[2]):
             continue
         cx = r.counterexample
-        shown.append(r if cx is None or cx.point else replace(r, counterexample=network_trace(net, cx)))
+        if cx is None or cx.point:
+            shown.append(r)
+            continue
+        told = network_trace(net, cx)
+        loop = told.steps[cx.loop_start].state if cx.loop_start is not None else ""
+        shown.append(
+            replace(r, counterexample=told, detail=r.detail.replace(f"through {NETWORK_STATE}", f"through {loop}"))
+        )
     return shown
