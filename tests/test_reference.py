@@ -29,7 +29,10 @@ def test_the_api_reference_is_what_the_package_says() -> None:
     for name in mlca_verify.__all__:
         assert f"## `{name}`" in text
     assert api_reference.undocumented() == []
-    assert "load_spec(path: str | Path, compare: bool = True, confine: bool = True) -> LoadedSpec" in text
+    assert (
+        "load_spec(path: str | Path, compare: bool = True, confine: bool = True, network: bool = False) -> LoadedSpec"
+        in text
+    )
 
 
 def test_every_public_name_is_what_it_says_on_every_access() -> None:
