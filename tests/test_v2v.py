@@ -16,6 +16,7 @@ from mlca_verify.logic.replay64 import Binary64, Value
 from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine
 from mlca_verify.network import Network
+from mlca_verify.network_report import check_network
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 
@@ -25,15 +26,9 @@ MACHINES = sorted(p for p in V2V.glob("*.toml") if p not in NETWORKS)
 
 
 def _verdicts(path: Path) -> dict[str, Result]:
-    from mlca_verify.logic.datachecks import check_declared
-    from mlca_verify.network_report import network_results
-
     loaded = load_spec(path, network=True)
-    net = loaded.network
-    assert net is not None
-    ids = {p.id for p in net.invariants}
-    results = check_declared(loaded.machine, Limits(timeout_ms=max(10_000, net.timeout_ms)), ids)
-    return {r.prop: r for r in network_results(net, results)}
+    assert loaded.network is not None
+    return {r.prop: r for r in check_network(loaded.network, loaded.machine, Limits())}
 
 
 def test_the_v2v_folder_holds_the_protocols_and_their_networks() -> None:

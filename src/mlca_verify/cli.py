@@ -11,7 +11,6 @@ import json
 import os
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -36,12 +35,11 @@ from mlca_verify.escape import terminal
 from mlca_verify.files import read_regular, write_atomic
 from mlca_verify.json_types import JsonObject
 from mlca_verify.logic import check_all, equivalence
-from mlca_verify.logic.datachecks import check_declared
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
-from mlca_verify.network_report import network_assumptions, network_results
+from mlca_verify.network_report import check_network, network_assumptions
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec_diff import transition_changes, verdict_changes
@@ -227,13 +225,10 @@ def _select(results: list[Result], only: str | None) -> list[Result]:
 
 
 def _check(spec: LoadedSpec, timeout_ms: int, parametric: bool, limits: Limits) -> list[Result]:
-    """Every verdict of a machine; a network's own properties (its instances' built-in checks are their own
-    specs': a network's runs are runs of each instance, within its assumptions)."""
+    """Every verdict of a machine; a network's own properties (see `network_report.check_network`)."""
     if spec.network is None:
         return check_all(spec.machine, timeout_ms, parametric, limits)
-    ids = {p.id for p in spec.network.invariants} | {p.id for p in spec.network.liveness}
-    budget = replace(limits, timeout_ms=max(limits.timeout_ms, spec.network.timeout_ms))
-    return network_results(spec.network, check_declared(spec.machine, budget, ids, parametric))
+    return check_network(spec.network, spec.machine, limits, parametric)
 
 
 def cmd_check(args: argparse.Namespace) -> int:

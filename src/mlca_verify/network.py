@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Literal
 
-from mlca_verify.errors import Loc
+from mlca_verify.errors import Loc, SpecError
 from mlca_verify.model import (
     IN_MEMORY,
     Arith,
@@ -65,15 +65,6 @@ SCHEDULES: tuple[Schedule, ...] = ("synchronous", "interleaved")
 NETWORK_STATE = "NETWORK"  # the flat machine's one state
 MAX_DELAY = 100
 MAX_LOST = 100
-
-
-class NetworkProblem(Exception):
-    """A network that cannot be flattened, with the place in its file to blame."""
-
-    def __init__(self, loc: Loc, message: str) -> None:
-        super().__init__(message)
-        self.loc = loc
-        self.message = message
 
 
 @dataclass(frozen=True)
@@ -174,6 +165,11 @@ def _int(value: int) -> Num:
     return Num(Fraction(value), False)
 
 
+def _count_up(name: str, cap: int) -> Expr:
+    """`min(name + 1, cap)`: a counter of steps that saturates at `cap`."""
+    return Call("min", (Arith("+", Var(name), _int(1)), _int(cap)))
+
+
 def _ite_chain(cases: Sequence[tuple[Expr, Expr]], otherwise: Expr) -> Expr:
     result = otherwise
     for cond, then in reversed(cases):
@@ -200,9 +196,7 @@ def _instance(inst: Instance, parts: _Parts, turn: Expr | None) -> None:
     its mode and variables elsewhere."""
     m = inst.machine
     if m.semantics != "first-match" or m.otherwise != "stay":
-        raise NetworkProblem(
-            inst.loc, f"instance '{inst.name}': a network steps first-match machines that stay otherwise"
-        )
+        raise SpecError(inst.loc, f"instance '{inst.name}': a network steps first-match machines that stay otherwise")
     r = Renamer(inst.name, m.states)
     parts.inputs += [replace(i, name=r.name(i.name)) for i in m.inputs]
     parts.params += [replace(p, name=r.name(p.name)) for p in m.params]
@@ -260,7 +254,7 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
     sender, receiver = net.instance(ch.sender).machine, net.instance(ch.receiver).machine
     output = next(o for o in sender.outputs if o.name == ch.output)
     if not reads_context_only(output.expr, sender):
-        raise NetworkProblem(
+        raise SpecError(
             ch.loc,
             f"channel '{ch.id}': output '{ch.sender}.{ch.output}' reads the step's inputs; a channel carries an "
             "output over the sender's context (state, variables, params)",
@@ -351,7 +345,7 @@ def _arrived(ch: Channel, age: Expr, parts: _Parts) -> Expr:
     parts.variables.append(
         Variable(
             steps, "int", Fraction(0), (Fraction(0), Fraction(ch.latest)),
-            Call("min", (Arith("+", Var(steps), _int(1)), _int(ch.latest))), (),
+            _count_up(steps, ch.latest), (),
             f"channel {ch.id}: steps taken, up to its longest delay", ch.cite, ch.loc,
         )
     )  # fmt: skip
@@ -363,7 +357,7 @@ def _arrived(ch: Channel, age: Expr, parts: _Parts) -> Expr:
     parts.variables.append(
         Variable(
             run, "int", Fraction(0), (Fraction(0), Fraction(ch.lost)),
-            Ite(Var(lost), Call("min", (Arith("+", Var(run), _int(1)), _int(ch.lost))), _int(0)), (),
+            Ite(Var(lost), _count_up(run, ch.lost), _int(0)), (),
             f"channel {ch.id}: messages lost in a row", ch.cite, ch.loc,
         )
     )  # fmt: skip
@@ -443,7 +437,7 @@ def _fair(inst: Instance, turn: Expr, bound: int, parts: _Parts) -> None:
     parts.variables.append(
         Variable(
             idle, "int", Fraction(0), (Fraction(0), Fraction(bound - 1)),
-            Ite(turn, _int(0), Call("min", (Arith("+", Var(idle), _int(1)), _int(bound - 1)))), (),
+            Ite(turn, _int(0), _count_up(idle, bound - 1)), (),
             f"steps {inst.name} has sat out", inst.cite, inst.loc,
         )
     )  # fmt: skip

@@ -6,8 +6,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
+from mlca_verify.logic.datachecks import check_declared
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Result
-from mlca_verify.model import show
+from mlca_verify.model import Machine, show
 from mlca_verify.network import NETWORK_STATE, Channel, Network, Renamer, mode_of, qualified
 
 
@@ -105,3 +107,12 @@ def network_results(net: Network, results: Sequence[Result]) -> list[Result]:
             replace(r, counterexample=told, detail=r.detail.replace(f"through {NETWORK_STATE}", f"through {loop}"))
         )
     return shown
+
+
+def check_network(net: Network, flat: Machine, limits: Limits, parametric: bool = False) -> list[Result]:
+    """A network's own properties, decided on its flat machine with the larger of `limits`' budget and the
+    network's, told in its words. The instances' built-in checks are their own specs': a run of the network is
+    a run of each instance."""
+    ids = {p.id for p in net.invariants} | {p.id for p in net.liveness}
+    budget = replace(limits, timeout_ms=max(limits.timeout_ms, net.timeout_ms))
+    return network_results(net, check_declared(flat, budget, ids, parametric))

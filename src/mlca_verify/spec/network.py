@@ -29,7 +29,6 @@ from mlca_verify.network import (
     Channel,
     Instance,
     Network,
-    NetworkProblem,
     Order,
     Schedule,
     flatten,
@@ -139,7 +138,7 @@ class NetworkLoader:
             net["name"], instances, channels, loc=self.where.loc(("network",)), schedule=schedule, fairness=fairness,
             timeout_ms=budget,
         )  # fmt: skip
-        flat = self.flatten(skeleton)
+        flat = flatten(skeleton)
         self.env = _symbols(flat)
         self.states = {f"{i.name}.{s}": (i.name, i.machine.states) for i in instances for s in i.machine.states}
         network = replace(
@@ -150,13 +149,7 @@ class NetworkLoader:
             doc=net.get("doc", ""),
         )
         self.unique((*network.invariants, *network.liveness))
-        return network, self.flatten(network)
-
-    def flatten(self, network: Network) -> Machine:
-        try:
-            return flatten(network)
-        except NetworkProblem as err:
-            raise SpecError(err.loc, err.message) from None
+        return network, flatten(network)
 
     def schedule(self, count: int) -> tuple[Schedule, int]:
         net = self.doc["network"]
