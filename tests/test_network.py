@@ -11,9 +11,11 @@ import pytest
 
 from mlca_verify.cli import main
 from mlca_verify.logic import check_all
+from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.replay64 import Binary64
 from mlca_verify.network import Network
-from mlca_verify.network_report import network_results
+from mlca_verify.network_chart import messages
+from mlca_verify.network_report import check_network, network_results
 from mlca_verify.spec import load_spec
 from tests.conftest import ROOT
 
@@ -197,6 +199,41 @@ def test_the_report_tells_the_counterexample_in_the_networks_words(
     assert rows[1][7:9] == ["1", "1"]  # both claims lost
     assert "~fired" not in out and "determinism" not in out and "reach:" not in out
     assert out.rstrip().endswith("1 property: 0 hold, 1 violated, 0 unknown; all as expected")
+    chart = out[out.index("message sequence") :].splitlines()[1:7]
+    assert [line.split() for line in chart] == [
+        ["step", "A", "B"],
+        ["----", "-" * 22, "-" * 22],
+        ["1", "KEEP", "->", "CLAIM", "KEEP", "->", "CLAIM"],
+        ["|--", "ab", "--------------->", "lost", "at", "step", "2"],
+        ["<---------------", "ba", "--|", "lost", "at", "step", "2"],
+        ["2", "CLAIM", "->", "MOVE", "CLAIM", "->", "MOVE"],
+    ]
+
+
+def test_the_chart_follows_each_message_through_delays_and_losses(tmp_path: Path) -> None:
+    """On lossy channels, one read 1 to 3 steps late in any order: every message the chart says was read or lost
+    at step j is the one the trace's age at j names, and every loss of a claim in the trace is in the chart."""
+    text = _channels((1, 1), (1, 1), ('max_delay = 3\norder = "any"\n', ""))
+    loaded = load_spec(_pair(tmp_path, text), network=True)
+    net = loaded.network
+    assert net is not None
+    (result,) = check_network(net, loaded.machine, Limits())
+    cx = result.counterexample
+    assert result.verdict == "violated" and cx is not None
+    found = messages(net, cx)
+    assert any(m.lost for m in found)
+    for m in found:
+        for j in (*m.heard, *m.lost):
+            step = cx.steps[j - 1]
+            age = int(step.signals["ab~age"]) if m.channel == "ab" else 1
+            assert j - age == m.sent and step.inputs[f"{m.channel}~lost"] == (j in m.lost)
+    for cid, sender in (("ab", "A"), ("ba", "B")):
+        due = {}
+        for j, step in enumerate(cx.steps, start=1):
+            age = int(step.signals["ab~age"]) if cid == "ab" else 1
+            if j - age >= 1 and step.inputs[f"{cid}~lost"] and cx.steps[j - age - 1].outputs[f"{sender}.claiming"]:
+                due[j] = j - age
+        assert due == {j: m.sent for m in found if m.channel == cid for j in m.lost}
 
 
 def test_the_report_keeps_the_instances_range_checks_and_drops_the_flat_machines_own() -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from mlca_verify.escape import terminal
 from mlca_verify.json_types import JsonObject
@@ -189,7 +189,10 @@ def results_text(
     assumptions: Sequence[str] = (),
     *,
     reals: str = "binary64",
+    charts: Mapping[str, str] | None = None,
 ) -> str:
+    """The table of `results`, what they assume, and each counterexample as a trace (followed by its chart in
+    `charts`, by property: a network's message sequence)."""
     rows = []
     for r in results:
         status = ("ok" if r.ok else "UNEXPECTED") + (" (reals)" if r.caveat else "")
@@ -205,6 +208,8 @@ def results_text(
         if r.counterexample is not None and r.counterexample.steps:
             parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
             parts.append(trace_text(r.counterexample, inputs))
+            if charts and r.prop in charts:
+                parts.append(f"\n    message sequence ('|-- id -->': a message on channel id):\n{charts[r.prop]}")
         elif r.verdict != "holds":
             parts.append(f"\n  {r.prop} {r.verdict}: {r.detail}")
     caveats = [r for r in results if r.caveat]

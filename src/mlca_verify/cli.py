@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from mlca_verify import check_report, ci_formats, cli_base, waves
+from mlca_verify import check_report, ci_formats, cli_base, network_chart, waves
 from mlca_verify.cli_base import (
     DEPTH_LIMIT,
     EXIT_FINDING,
@@ -246,11 +246,12 @@ def cmd_check(args: argparse.Namespace) -> int:
         if not args.quiet:
             assumed = [f"{a.id}: {show(a.expr)}" for a in spec.machine.assumptions]
             assumed = assumed if spec.network is None else network_assumptions(spec.network)
-            say(
-                check_report.results_text(
-                    spec.path, spec.machine.name, results, spec.machine.input_names, assumed, reals=spec.machine.reals
-                )
-            )
+            charts = None if spec.network is None else network_chart.charts(spec.network, results)
+            text = check_report.results_text(
+                spec.path, spec.machine.name, results, spec.machine.input_names, assumed,
+                reals=spec.machine.reals, charts=charts,
+            )  # fmt: skip
+            say(text)
         say(f"{spec.path}: {check_report.summary_text(results)}\n")
     if args.json:
         write_json(args.json, check_report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))

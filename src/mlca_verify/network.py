@@ -23,7 +23,7 @@ receiver's definitions, `valid()` and invalid samples keep their meaning unchang
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Literal
@@ -54,6 +54,7 @@ from mlca_verify.model import (
     Var,
     Variable,
     children,
+    names_of,
     reads_context_only,
     with_children,
 )
@@ -116,9 +117,38 @@ class Network:
     schedule: Schedule = "synchronous"
     fairness: int = 0  # interleaved: each instance steps at least once in every `fairness` steps (0: no bound)
     timeout_ms: int = 0  # the solver budget its proofs need, as `check --timeout-ms` (0: the command's)
+    # A part of a larger network (see `part`): these boolean ports also hear instances outside it, anything at
+    # any step, and (interleaved) an instance outside may take a step's turn.
+    open_ports: tuple[str, ...] = ()
+    others: bool = False
 
     def instance(self, name: str) -> Instance:
         return next(i for i in self.instances if i.name == name)
+
+
+def instances_read(*exprs: Expr) -> frozenset[str]:
+    """The instances whose names (`A.gap`, `A.state`) the expressions read."""
+    return frozenset(n.partition(".")[0] for e in exprs for n in names_of(e) if "." in n)
+
+
+def part(net: Network, keep: Collection[str]) -> Network:
+    """The instances `keep` of `net` and the channels between them, without properties: every other instance is
+    abstracted away. A boolean port that a channel from outside feeds also hears anything at any step (an open
+    port), a signal port fed from outside reads any sample, and (interleaved) a step may be an outside
+    instance's turn. So every run of `net`, restricted to `keep`, is a run of the part (the outside instances'
+    messages are some of the "anything"), and a property over `keep` alone that holds on the part holds on
+    `net`, whatever the number and the behaviour of the others. A violation on the part may not be one of
+    `net`'s."""
+    fed = {qualified(c.receiver, c.port) for c in net.channels if c.receiver in keep and c.sender not in keep}
+    return replace(
+        net,
+        instances=tuple(i for i in net.instances if i.name in keep),
+        channels=tuple(c for c in net.channels if c.sender in keep and c.receiver in keep),
+        invariants=(),
+        liveness=(),
+        open_ports=tuple(sorted(fed | set(net.open_ports))),
+        others=net.others or any(i.name not in keep for i in net.instances),
+    )
 
 
 def qualified(instance: str, name: str) -> str:
@@ -278,18 +308,21 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
         parts.heard.setdefault(port, []).append((ch, BinOp("and", arrived, value)))
 
 
-def _hear(parts: _Parts) -> None:
+def _hear(parts: _Parts, open_ports: Collection[str]) -> None:
     """Each boolean input fed by channels: true when one of them delivers true (several channels into one input
-    are heard together, as a radio hears every sender)."""
+    are heard together, as a radio hears every sender); an open port at least then (it also hears outside)."""
     for port, feeds in parts.heard.items():
         heard = feeds[0][1]
         for _, more in feeds[1:]:
             heard = BinOp("or", heard, more)
         ch = feeds[0][0]
         ids = ", ".join(c.id for c, _ in feeds)
-        parts.assumptions.append(
-            Assumption(f"{port}~hears", BinOp("<->", Var(port), heard), f"what {port} hears ({ids})", ch.cite, ch.loc)
+        tie, what = (
+            (BinOp("->", heard, Var(port)), "at least")
+            if port in open_ports
+            else (BinOp("<->", Var(port), heard), "what")
         )
+        parts.assumptions.append(Assumption(f"{port}~hears", tie, f"{what} {port} hears ({ids})", ch.cite, ch.loc))
 
 
 def _pipeline(ch: Channel, output: Output, sent: Expr, parts: _Parts) -> dict[int, Expr]:
@@ -384,7 +417,7 @@ def flatten(net: Network) -> Machine:
         _instance(inst, parts, turn)
     for ch in net.channels:
         _channel(net, ch, parts)
-    _hear(parts)
+    _hear(parts, net.open_ports)
     no_transitions: tuple[Transition, ...] = ()
     return Machine(
         name=net.name,
@@ -411,11 +444,12 @@ def flatten(net: Network) -> Machine:
 
 def _turns(net: Network, parts: _Parts) -> list[Expr | None]:
     """Synchronous: every instance steps at every step. Interleaved: one instance steps, the one an int signal
-    `~turn` names; with `fairness = F`, each steps at least once in every F steps (a counter of the steps it
-    has sat out, and an assumption that it steps when the counter reaches F - 1)."""
+    `~turn` names (in a part of a larger network, one more number: an instance outside); with `fairness = F`,
+    each steps at least once in every F steps (a counter of the steps it has sat out, and an assumption that it
+    steps when the counter reaches F - 1)."""
     if net.schedule == "synchronous":
         return [None for _ in net.instances]
-    n = len(net.instances)
+    n = len(net.instances) + (1 if net.others else 0)
     parts.signals.append(
         Signal("~turn", "int", (), (Fraction(0), Fraction(n - 1)), "the instance that steps (by its number)",
                net.cite, net.loc)

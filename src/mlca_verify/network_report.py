@@ -9,8 +9,18 @@ from dataclasses import replace
 from mlca_verify.logic.datachecks import check_declared
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Result
-from mlca_verify.model import Machine, show
-from mlca_verify.network import NETWORK_STATE, Channel, Network, Renamer, mode_of, qualified
+from mlca_verify.model import Invariant, Liveness, Machine, show
+from mlca_verify.network import (
+    NETWORK_STATE,
+    Channel,
+    Network,
+    Renamer,
+    flatten,
+    instances_read,
+    mode_of,
+    part,
+    qualified,
+)
 
 
 def own_element(name: str) -> bool:
@@ -110,9 +120,51 @@ def network_results(net: Network, results: Sequence[Result]) -> list[Result]:
 
 
 def check_network(net: Network, flat: Machine, limits: Limits, parametric: bool = False) -> list[Result]:
-    """A network's own properties, decided on its flat machine with the larger of `limits`' budget and the
-    network's, told in its words. The instances' built-in checks are their own specs': a run of the network is
-    a run of each instance."""
-    ids = {p.id for p in net.invariants} | {p.id for p in net.liveness}
+    """A network's own properties, decided with the larger of `limits`' budget and the network's, told in its
+    words. A property that reads some of the instances only is first decided on the part of the network they
+    make (`network.part`): what holds there holds here, for any others; the rest is decided on the whole flat
+    machine. The instances' built-in checks are their own specs': a run of the network is a run of each
+    instance."""
     budget = replace(limits, timeout_ms=max(limits.timeout_ms, net.timeout_ms))
-    return network_results(net, check_declared(flat, budget, ids, parametric))
+    proved: dict[str, Result] = {}
+    for keep, props in _by_part(net).items():
+        piece = replace(part(net, keep), invariants=props.invariants, liveness=props.liveness)
+        ids = _ids(props)
+        for r in check_declared(flatten(piece), budget, ids, parametric):
+            if r.verdict == "holds":
+                proved[r.prop] = replace(r, detail=f"{r.detail}; on {_names(keep)} alone, whatever the others send")
+    rest = set(_ids(net)) - set(proved)
+    decided = {r.prop: r for r in check_declared(flat, budget, rest, parametric)} if rest else {}
+    return network_results(net, [proved.get(pid) or decided[pid] for pid in _ids(net)])
+
+
+def _ids(net: Network) -> list[str]:
+    return [p.id for p in net.invariants] + [p.id for p in net.liveness]
+
+
+def _by_part(net: Network) -> dict[frozenset[str], Network]:
+    """The properties that read some of the instances only, grouped by the instances they read (each group a
+    network that holds just them)."""
+    everyone = frozenset(i.name for i in net.instances)
+    groups: dict[frozenset[str], Network] = {}
+    props: tuple[Invariant | Liveness, ...] = (*net.invariants, *net.liveness)
+    for prop in props:
+        keep = _read_by(prop)
+        if keep and keep < everyone:
+            found = groups.get(keep, replace(net, invariants=(), liveness=()))
+            if isinstance(prop, Invariant):
+                groups[keep] = replace(found, invariants=(*found.invariants, prop))
+            else:
+                groups[keep] = replace(found, liveness=(*found.liveness, prop))
+    return groups
+
+
+def _read_by(prop: Invariant | Liveness) -> frozenset[str]:
+    if isinstance(prop, Invariant):
+        return instances_read(prop.expr)
+    return instances_read(prop.assume, prop.goal, *([prop.bound] if prop.bound is not None else []))
+
+
+def _names(keep: frozenset[str]) -> str:
+    ordered = sorted(keep)
+    return ordered[0] if len(ordered) == 1 else ", ".join(ordered[:-1]) + " and " + ordered[-1]

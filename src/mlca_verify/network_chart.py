@@ -1,0 +1,136 @@
+"""A network's counterexample as a message sequence chart (pure): each instance's steps side by side, and every
+message a channel carried, with where it was read and where it was lost.
+
+A message is what a channel's sender held after a step (`sent`): for a boolean output, only a true one (a claim,
+a request; a false one is silence, read as nothing when lost); for a signal, every value. At each later step the
+channel delivers the message of the age the trace chose (its `delay`, or the signal `<channel>~age`); the
+receiver reads it (`heard`) unless the input `<channel>~lost` is true at that step (`lost`). A message may be
+read more than once (a late channel in order may deliver the same one again) or never (`in flight` when the
+trace ends); what is sent after the last step is left out. The chart reads the trace that
+`network_report.network_trace` tells, so it shares nothing with the flattening but the names of the channels'
+inputs and signals.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from mlca_verify.check_report import number_text
+from mlca_verify.escape import terminal
+from mlca_verify.json_types import JsonObject
+from mlca_verify.logic.results import Counterexample, Number, Result
+from mlca_verify.network import Channel, Network, qualified
+
+COLUMN = 24  # the narrowest column of an instance
+
+
+@dataclass(frozen=True)
+class Message:
+    channel: str
+    sent: int  # the step after which the sender held it (1: after the first step)
+    value: Number
+    heard: tuple[int, ...]  # the steps at which the receiver read it
+    lost: tuple[int, ...]  # the steps at which it was to be read and was lost
+
+    def to_json(self) -> JsonObject:
+        return {
+            "channel": self.channel,
+            "sent": self.sent,
+            "value": self.value,
+            "heard": list(self.heard),
+            "lost": list(self.lost),
+        }
+
+
+def messages(net: Network, cx: Counterexample) -> list[Message]:
+    """Every message of `cx` (told in the network's words), channel by channel, in the order sent."""
+    found = []
+    for ch in net.channels:
+        sent = [{**step.variables, **step.outputs}.get(qualified(ch.sender, ch.output)) for step in cx.steps]
+        reads: dict[int, tuple[list[int], list[int]]] = {k: ([], []) for k in range(1, len(cx.steps) + 1)}
+        for j, step in enumerate(cx.steps, start=1):
+            age = int(step.signals.get(f"{ch.id}~age", ch.delay)) if ch.latest > ch.delay else ch.delay
+            if j - 1 < age:
+                continue  # nothing sent that long ago yet
+            heard, lost = reads[j - age]
+            (lost if step.inputs.get(f"{ch.id}~lost", False) else heard).append(j)
+        for k, value in enumerate(sent[:-1], start=1):  # what is sent after the last step is never read
+            if value is None or (_boolean(net, ch) and not value):
+                continue
+            heard, lost = reads[k]
+            found.append(Message(ch.id, k, value, tuple(heard), tuple(lost)))
+    return found
+
+
+def _boolean(net: Network, ch: Channel) -> bool:
+    output = next(o for o in net.instance(ch.sender).machine.outputs if o.name == ch.output)
+    return output.type == "bool"
+
+
+def charts(net: Network, results: Sequence[Result]) -> dict[str, str]:
+    """The chart of each run a result shows (not a lemma's valuation), by property."""
+    return {
+        r.prop: chart_text(net, r.counterexample)
+        for r in results
+        if r.counterexample is not None and r.counterexample.steps and not r.counterexample.point
+    }
+
+
+def chart_text(net: Network, cx: Counterexample, indent: str = "    ") -> str:
+    """The chart: a row of each instance's state (and its change) per step, and under the step a line per message
+    sent after it, an arrow from its sender's column to its receiver's, with its fate."""
+    names = [i.name for i in net.instances]
+    column = {n: k for k, n in enumerate(names)}
+    moves = [_moves(step.state, step.outcome.next or step.state, names) for step in cx.steps]
+    width = max([COLUMN, *(len(m) + 2 for row in moves for m in row)])
+    by_step: dict[int, list[Message]] = {}
+    for m in messages(net, cx):
+        by_step.setdefault(m.sent, []).append(m)
+    lines = [
+        indent + "step  " + "".join(terminal(n).ljust(width) for n in names).rstrip(),
+        indent + "----  " + "".join(("-" * (width - 2)).ljust(width) for _ in names).rstrip(),
+    ]
+    for k, row in enumerate(moves, start=1):
+        lines.append(indent + str(k).ljust(6) + "".join(terminal(m).ljust(width) for m in row).rstrip())
+        for m in by_step.get(k, []):
+            ch = net_channel(net, m.channel)
+            arrow = _arrow(_label(net, ch, m), column[ch.sender], column[ch.receiver], width)
+            lines.append(indent + " " * 6 + arrow + "  " + _fate(m))
+    return "\n".join(lines)
+
+
+def net_channel(net: Network, cid: str) -> Channel:
+    return next(c for c in net.channels if c.id == cid)
+
+
+def _moves(before: str, after: str, names: Sequence[str]) -> list[str]:
+    """Each instance's state, `A -> B` where the step changed it (`A:KEEP B:CLAIM` as the trace tells modes)."""
+    was, now = _modes(before), _modes(after)
+    return [was.get(n, "?") if was.get(n) == now.get(n) else f"{was.get(n, '?')} -> {now.get(n, '?')}" for n in names]
+
+
+def _modes(text: str) -> dict[str, str]:
+    return dict(part.split(":", 1) for part in text.split() if ":" in part)
+
+
+def _label(net: Network, ch: Channel, m: Message) -> str:
+    return ch.id if _boolean(net, ch) else f"{ch.id} = {number_text(m.value)}"
+
+
+def _arrow(label: str, sender: int, receiver: int, width: int) -> str:
+    """`|-- label ---->` from the sender's column to the receiver's, or `<---- label --|` leftwards."""
+    low, high = min(sender, receiver), max(sender, receiver)
+    span = max((high - low) * width - 1, len(label) + 8)
+    body = f" {terminal(label)} "
+    if sender < receiver:
+        text = "|--" + body + "-" * (span - len(body) - 4) + ">"
+    else:
+        text = "<" + "-" * (span - len(body) - 4) + body + "--|"
+    return " " * (low * width) + text
+
+
+def _fate(m: Message) -> str:
+    said = [f"read by step {j}" for j in m.heard] + [f"lost at step {j}" for j in m.lost]
+    merged = sorted(said, key=lambda s: int(s.rsplit(" ", 1)[1]))
+    return ", ".join(merged) if merged else "in flight when the trace ends"
