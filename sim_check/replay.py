@@ -152,8 +152,8 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> lis
         raise UsageError.at(path, "invalid JSON: nested too deeply") from None
     except ValueError as err:
         raise UsageError.at(path, f"invalid JSON: {str(err).splitlines()[0] or type(err).__name__}") from None
-    if not isinstance(doc, dict) or doc.get("schema") != "mlca-verify.check/2":
-        raise UsageError.at(path, "not a `mlca-verify check --json` document (schema mlca-verify.check/2)")
+    if not isinstance(doc, dict) or doc.get("schema") not in ("mlca-verify.check/2", "mlca-verify.check/3"):
+        raise UsageError.at(path, "not a `mlca-verify check --json` document (schema mlca-verify.check/3 or /2)")
     pairs = [
         (spec, result)
         for spec in _list(doc.get("specs"))

@@ -38,7 +38,7 @@ def schema(name: str) -> dict[str, object]:
 
 
 def test_check_json_matches_its_schema(outputs: dict[str, Path]) -> None:
-    shipped = Path(__file__).parent.parent / "src" / "mlca_verify" / "schemas" / "check-2.schema.json"
+    shipped = Path(__file__).parent.parent / "src" / "mlca_verify" / "schemas" / "check-3.schema.json"
     jsonschema.validate(json.loads(outputs["json"].read_text()), json.loads(shipped.read_text()))
 
 

@@ -24,7 +24,7 @@ def test_check_shipped_specs_writes_every_result(tmp_path: Path, capsys: pytest.
     out = tmp_path / "out.json"
     assert main(["check", *SHIPPED, "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
-    assert doc["schema"] == "mlca-verify.check/2"
+    assert doc["schema"] == "mlca-verify.check/3"
     assert [s["path"] for s in doc["specs"]] == SHIPPED
     for spec in doc["specs"]:
         assert len(spec["sha256"]) == 64

@@ -71,8 +71,8 @@ def test_json_schema_2_carries_proofs_and_values(tmp_path: Path) -> None:
     out = tmp_path / "check.json"
     assert main(["check", str(FAST_TIMER), "--only", "deferral,A3", "--quiet", "--json", str(out)]) == 1
     doc = json.loads(out.read_text())
-    jsonschema.validate(doc, json.loads((ROOT / "src" / "mlca_verify" / "schemas" / "check-2.schema.json").read_text()))
-    assert doc["schema"] == "mlca-verify.check/2"
+    jsonschema.validate(doc, json.loads((ROOT / "src" / "mlca_verify" / "schemas" / "check-3.schema.json").read_text()))
+    assert doc["schema"] == "mlca-verify.check/3"
     results = {r["property"]: r for r in doc["specs"][0]["results"]}
     assert results["A3"]["proof"]["engine"] == "k-induction"
     step = results["deferral"]["counterexample"]["steps"][-1]

@@ -97,7 +97,7 @@ def test_check_writes_the_smt2_files_and_the_json_holds_the_point(tmp_path: Path
     assert main(["check", str(FIXTURE), "--quiet", "--smt2", str(out), "--json", str(report)]) == 0
     assert sorted(p.name for p in out.iterdir()) == sorted(f"gaps_{k.replace('-', '_')}.smt2" for k in EXPECTED)
     doc = json.loads(report.read_text())
-    schema = json.loads((ROOT / "src" / "mlca_verify" / "schemas" / "check-2.schema.json").read_text())
+    schema = json.loads((ROOT / "src" / "mlca_verify" / "schemas" / "check-3.schema.json").read_text())
     jsonschema.validate(doc, schema)
     braking = next(r for r in doc["specs"][0]["results"] if r["property"] == "braking")
     assert braking["kind"] == "lemma" and braking["counterexample"]["point"] is True

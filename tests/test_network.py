@@ -4,9 +4,11 @@ against a brute-force explorer of the network that steps each instance on its ow
 from __future__ import annotations
 
 import itertools
+import json
 from collections.abc import Callable
 from pathlib import Path
 
+import jsonschema
 import pytest
 
 from mlca_verify.cli import main
@@ -394,3 +396,30 @@ def test_a_response_over_a_network_is_decided_and_its_lasso_told_in_its_words(
     assert "A.claim B.claim" in out and "A.yield B.yield" in out and "(steps 2..3 repeat forever)" in out
     assert "NETWORK" not in out
     assert out.rstrip().endswith("2 properties: 1 hold, 1 violated, 0 unknown; all as expected")
+
+
+def test_a_networks_json_report_holds_what_it_is_and_its_runs_messages(tmp_path: Path) -> None:
+    """`check --json` of a network validates against the shipped schema, names its instances and channels, and
+    lists each message of a counterexample with the steps it was read and lost at (the chart's)."""
+    out = tmp_path / "check.json"
+    assert main(["check", str(NETWORKS / "claim_pair.toml"), "--json", str(out), "--quiet"]) == 0
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    schema = json.loads((ROOT / "src" / "mlca_verify" / "schemas" / "check-3.schema.json").read_text())
+    jsonschema.Draft202012Validator(schema).validate(doc)
+    (entry,) = doc["specs"]
+    assert [i["name"] for i in entry["network"]["instances"]] == ["A", "B"]
+    assert entry["network"]["channels"][0] == {
+        "id": "ab", "from": "A.claiming", "to": "B.other_claims", "delay": 1, "max_delay": 1, "order": "fifo",
+        "lost": 1, "cite": "corpus",
+    }  # fmt: skip
+    (result,) = entry["results"]
+    assert result["counterexample"]["messages"] == [
+        {"channel": "ab", "sent": 1, "value": 1, "heard": [], "lost": [2]},
+        {"channel": "ba", "sent": 1, "value": 1, "heard": [], "lost": [2]},
+    ]
+    machine = tmp_path / "machine.json"
+    assert main(["check", str(NETWORKS / "claim_car.toml"), "--json", str(machine), "--quiet"]) == 0
+    plain = json.loads(machine.read_text(encoding="utf-8"))
+    jsonschema.Draft202012Validator(schema).validate(plain)
+    assert "network" not in plain["specs"][0]
+    assert all("messages" not in (r["counterexample"] or {}) for r in plain["specs"][0]["results"])

@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
 from mlca_verify.escape import terminal
-from mlca_verify.json_types import JsonObject
+from mlca_verify.json_types import Json, JsonObject
 from mlca_verify.logic.equiv import EquivalenceResult, Region
 from mlca_verify.logic.property_diff import PropertyChange
 from mlca_verify.logic.results import Counterexample, Outcome, Result, Step
 from mlca_verify.spec_diff import TransitionChange, VerdictChange
 from mlca_verify.words import count
 
-CHECK_SCHEMA = "mlca-verify.check/2"
+CHECK_SCHEMA = "mlca-verify.check/3"
 CITE_WIDTH = 60
 TRACE_CITE_WIDTH = 44
 
@@ -232,15 +233,35 @@ def summary_text(results: Sequence[Result]) -> str:
     return line + "; all as expected"
 
 
-def check_document(specs: Sequence[tuple[str, str, str, Sequence[Result]]]) -> JsonObject:
-    """The `mlca-verify check --json` document (schema mlca-verify.check/2, CHECK_SCHEMA)."""
-    return {
-        "schema": CHECK_SCHEMA,
-        "specs": [
-            {"path": path, "sha256": digest, "machine": name, "results": [r.to_json() for r in results]}
-            for path, digest, name, results in specs
-        ],
-    }
+@dataclass(frozen=True)
+class Checked:
+    """One spec's part of the `check --json` document: its results, and for a network what it is
+    (`network`) and each counterexample's messages (`messages`, by property)."""
+
+    path: str
+    sha256: str
+    machine: str
+    results: Sequence[Result]
+    network: JsonObject | None = None
+    messages: Mapping[str, list[JsonObject]] = field(default_factory=dict)
+
+    def to_json(self) -> JsonObject:
+        results: list[Json] = []
+        for r in self.results:
+            data = r.to_json()
+            cx = data.get("counterexample")
+            if isinstance(cx, dict) and r.prop in self.messages:
+                cx["messages"] = list(self.messages[r.prop])
+            results.append(data)
+        entry: JsonObject = {"path": self.path, "sha256": self.sha256, "machine": self.machine, "results": results}
+        if self.network is not None:
+            entry["network"] = self.network
+        return entry
+
+
+def check_document(specs: Sequence[Checked]) -> JsonObject:
+    """The `mlca-verify check --json` document (schema CHECK_SCHEMA)."""
+    return {"schema": CHECK_SCHEMA, "specs": [s.to_json() for s in specs]}
 
 
 def cube_text(cube: dict[str, bool]) -> str:

@@ -39,7 +39,7 @@ from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
-from mlca_verify.network_report import check_network, network_assumptions
+from mlca_verify.network_report import check_network, network_assumptions, network_json
 from mlca_verify.spec import LoadedSpec, load_spec
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec_diff import transition_changes, verdict_changes
@@ -231,6 +231,16 @@ def _check(spec: LoadedSpec, timeout_ms: int, parametric: bool, limits: Limits) 
     return check_network(spec.network, spec.machine, limits, parametric)
 
 
+def _checked(spec: LoadedSpec, results: list[Result]) -> check_report.Checked:
+    """A spec's part of the `check --json` document; a network's with what it is and its runs' messages."""
+    if spec.network is None:
+        return check_report.Checked(spec.path, spec.sha256, spec.machine.name, results)
+    return check_report.Checked(
+        spec.path, spec.sha256, spec.machine.name, results,
+        network_json(spec.network), network_chart.messages_json(spec.network, results),
+    )  # fmt: skip
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     loaded: list[LoadedSpec] = [load_spec(p, confine=not args.allow_outside, network=True) for p in args.specs]
     checked: list[tuple[LoadedSpec, list[Result]]] = []
@@ -254,7 +264,7 @@ def cmd_check(args: argparse.Namespace) -> int:
             say(text)
         say(f"{spec.path}: {check_report.summary_text(results)}\n")
     if args.json:
-        write_json(args.json, check_report.check_document([(s.path, s.sha256, s.machine.name, r) for s, r in checked]))
+        write_json(args.json, check_report.check_document([_checked(s, r) for s, r in checked]))
     for_ci = [(s.path, s.machine, r) for s, r in checked]
     if args.junit:
         write_text(args.junit, ci_formats.junit_xml(for_ci))

@@ -59,13 +59,23 @@ def messages(net: Network, cx: Counterexample) -> list[Message]:
             if value is None or (_boolean(net, ch) and not value):
                 continue
             heard, lost = reads[k]
-            found.append(Message(ch.id, k, value, tuple(heard), tuple(lost)))
+            number = int(value) if isinstance(value, bool) else value  # a boolean as 0 or 1
+            found.append(Message(ch.id, k, number, tuple(heard), tuple(lost)))
     return found
 
 
 def _boolean(net: Network, ch: Channel) -> bool:
     output = next(o for o in net.instance(ch.sender).machine.outputs if o.name == ch.output)
     return output.type == "bool"
+
+
+def messages_json(net: Network, results: Sequence[Result]) -> dict[str, list[JsonObject]]:
+    """The messages of each run a result shows, by property, as `check --json` writes them."""
+    return {
+        r.prop: [m.to_json() for m in messages(net, r.counterexample)]
+        for r in results
+        if r.counterexample is not None and r.counterexample.steps and not r.counterexample.point
+    }
 
 
 def charts(net: Network, results: Sequence[Result]) -> dict[str, str]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
+from mlca_verify.json_types import JsonObject
 from mlca_verify.logic.datachecks import check_declared
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Counterexample, Number, Outcome, Result
@@ -71,6 +72,31 @@ def network_trace(net: Network, cx: Counterexample) -> Counterexample:
         )
         before = after
     return replace(cx, steps=tuple(steps))
+
+
+def network_json(net: Network) -> JsonObject:
+    """What a network is, for `check --json`: its schedule, its instances (their specs and param overrides are in
+    their machines) and its channels' semantics."""
+    return {
+        "schedule": net.schedule,
+        "fairness": net.fairness,
+        "instances": [
+            {"name": i.name, "spec": i.spec, "machine": i.machine.name, "cite": i.cite} for i in net.instances
+        ],
+        "channels": [
+            {
+                "id": c.id,
+                "from": qualified(c.sender, c.output),
+                "to": qualified(c.receiver, c.port),
+                "delay": c.delay,
+                "max_delay": c.latest,
+                "order": c.order,
+                "lost": c.lost,
+                "cite": c.cite,
+            }
+            for c in net.channels
+        ],
+    }
 
 
 def network_assumptions(net: Network) -> list[str]:

@@ -158,7 +158,8 @@ def _outcome_properties() -> dict[str, JsonObject]:
     }
 
 
-def _check_defs() -> dict[str, JsonObject]:
+def _check_defs(networks: bool = False) -> dict[str, JsonObject]:
+    """The definitions a result needs; with `networks` (check's), a network run's messages too."""
     verdicts = get_args(Verdict)
     step = {
         "state": _string("The state before the step."),
@@ -193,10 +194,12 @@ def _check_defs() -> dict[str, JsonObject]:
                     "description": "A lemma's counterexample: one valuation, not a run (its one step holds them).",
                     "const": True,
                 },
+                **({"messages": _array(_ref("message", "A message."), _MESSAGES)} if networks else {}),
             },
             "A trace that shows the verdict: a counterexample, or the witness of a reachability check.",
-            optional=("params", "point"),
+            optional=("params", "point", "messages"),
         ),
+        **({"message": _message()} if networks else {}),
         "proof": _object(
             {
                 "engine": _enum(
@@ -223,6 +226,65 @@ def _check_defs() -> dict[str, JsonObject]:
             "How a property of a machine with data was decided by a search.",
         ),
     }
+
+
+_MESSAGES = (
+    "A network's run only: every message its channels carried (for a boolean output, each true one), channel by "
+    "channel in the order sent, with the steps at which it was read and lost (what the terminal's message sequence "
+    "chart draws)."
+)
+
+
+def _message() -> JsonObject:
+    steps: JsonObject = {"type": "integer", "minimum": 2}
+    return _object(
+        {
+            "channel": _string("The channel's id."),
+            "sent": _typed("integer", "The step after which the sender held it (1: after the first step).", minimum=1),
+            "value": {"description": "What it carried: the output's value (a boolean as 0 or 1).", "type": "number"},
+            "heard": _array(steps, "The steps at which the receiver read it."),
+            "lost": _array(steps, "The steps at which it was to be read and was lost."),
+        },
+        "One message of a network's run.",
+    )
+
+
+def _network() -> JsonObject:
+    instance = _object(
+        {
+            "name": _string("The instance's name (the prefix of its qualified names)."),
+            "spec": _string("Its machine spec, as the network names it."),
+            "machine": _string("Its machine's name."),
+            "cite": _string("Its cite."),
+        },
+        "One instance.",
+    )
+    count: JsonObject = {"type": "integer", "minimum": 0}
+    channel = _object(
+        {
+            "id": _string("The channel's id."),
+            "from": _string("The sender's output, qualified (A.claims)."),
+            "to": _string("The receiver's input or signal, qualified (B.heard)."),
+            "delay": _typed("integer", "The fewest steps a message takes.", minimum=1),
+            "max_delay": _typed("integer", "The most steps a message takes (delay when it is exact).", minimum=1),
+            "order": _enum(("fifo", "any"), "Whether late messages are read in the order sent."),
+            "lost": {**count, "description": "The most messages lost in a row."},
+            "cite": _string("Its cite."),
+        },
+        "One channel.",
+    )
+    return _object(
+        {
+            "schedule": _enum(("synchronous", "interleaved"), "Whether the instances step together or in turn."),
+            "fairness": {
+                **count,
+                "description": "Interleaved: each steps at least once in every so many (0: no bound).",
+            },
+            "instances": _array(instance, "The instances, in the spec's order."),
+            "channels": _array(channel, "The channels, in the spec's order."),
+        },
+        "A network spec only: its instances, channels and schedule, which its results' names and messages refer to.",
+    )
 
 
 def _result(timed: bool) -> JsonObject:
@@ -259,15 +321,17 @@ def check_schema() -> JsonObject:
             "sha256": _string("The SHA-256 of the spec file's bytes.", pattern=SHA256),
             "machine": _string("The machine's name."),
             "results": _array(_ref("result", "A result."), "Every result, in the order checked (after --only)."),
+            "network": _network(),
         },
         "One spec checked.",
+        optional=("network",),
     )
     return _document(
         "check",
         "What `mlca-verify check --json FILE` writes: for each spec, the verdict on every built-in check and "
         "declared property, and what shows it.",
         {"specs": _array(spec, "Each spec checked, in the order given.")},
-        {**_check_defs(), "result": _result(timed=True)},
+        {**_check_defs(networks=True), "result": _result(timed=True)},
     )
 
 
@@ -912,7 +976,7 @@ BUILDERS = {"check": check_schema, "conform": conform_schema, "tests": tests_sch
 
 
 def file_name(report: str) -> str:
-    """The shipped file of `report`'s schema: check-2.schema.json for mlca-verify.check/2."""
+    """The shipped file of `report`'s schema: check-3.schema.json for mlca-verify.check/3."""
     kind, version = REPORTS[report].removeprefix("mlca-verify.").split("/")
     return f"{kind}-{version}.schema.json"
 

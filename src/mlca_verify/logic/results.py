@@ -135,7 +135,7 @@ class Result:
         return self.verdict == self.expected
 
     def to_json(self) -> JsonObject:
-        """The result as `check --json` writes it (schema mlca-verify.check/2)."""
+        """The result as `check --json` writes it (schema mlca-verify.check/3)."""
         return {
             "property": self.prop,
             "kind": self.kind,
