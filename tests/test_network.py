@@ -15,7 +15,7 @@ from mlca_verify.cli import main
 from mlca_verify.logic import check_all
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.replay64 import Binary64
-from mlca_verify.network import Network
+from mlca_verify.network import Channel, Network, immediate_order
 from mlca_verify.network_chart import messages
 from mlca_verify.network_report import check_network, network_results
 from mlca_verify.spec import load_spec
@@ -81,7 +81,7 @@ def explore(net: Network, bad: Callable[[dict[str, str]], bool], depth: int = 12
 
 
 def _successors(net: Network, sims: dict[str, Binary64], state: State, n: int) -> list[State]:
-    modes, sent, runs, lasts, idle = state
+    _, _, runs, lasts, idle = state
     ports = {(c.receiver, c.port) for c in net.channels}
     free = [(i.name, p) for i in net.instances for p in i.machine.input_names if (i.name, p) not in ports]
     turns = range(n) if net.schedule == "interleaved" else [None]
@@ -97,17 +97,37 @@ def _successors(net: Network, sims: dict[str, Binary64], state: State, n: int) -
         for values in itertools.product((False, True), repeat=len(free)):
             for choice in itertools.product(*per_channel):
                 heard = dict(zip(free, values, strict=True))
-                for k, (c, (lost, age)) in enumerate(zip(net.channels, choice, strict=True)):
-                    got = len(sent[k]) >= age and not lost and sent[k][-age]
-                    heard[(c.receiver, c.port)] = heard.get((c.receiver, c.port), False) or got
-                new_modes = tuple(
-                    mode if turn is not None and turn != j else sims[inst.name].step(mode, {
-                        p: heard[(inst.name, p)] for p in inst.machine.input_names
-                    })[0]
-                    for j, (inst, mode) in enumerate(zip(net.instances, modes, strict=True))
-                )  # fmt: skip
+                new_modes = _step_all(net, sims, state, heard, choice, turn)
                 found.append(_after(net, sims, state, new_modes, choice, turn))
     return found
+
+
+def _step_all(net: Network, sims: dict[str, Binary64], state: State, heard: dict[tuple[str, str], bool],
+              choice: tuple[tuple[bool, int], ...], turn: int | None) -> tuple[str, ...]:  # fmt: skip
+    """Every instance's next mode, senders of immediate channels first: a message of age 0 is what its sender
+    holds after this very step."""
+    modes, sent = state[0], state[1]
+    new = dict(zip((i.name for i in net.instances), modes, strict=True))
+    for name in immediate_order(net):
+        j = next(k for k, i in enumerate(net.instances) if i.name == name)
+        inst = net.instances[j]
+        ports = dict(heard)
+        for k, (c, (lost, age)) in enumerate(zip(net.channels, choice, strict=True)):
+            if c.receiver != name:
+                continue
+            if age == 0:
+                got = not lost and _holds(net, sims, c, new[c.sender])
+            else:
+                got = len(sent[k]) >= age and not lost and sent[k][-age]
+            ports[(c.receiver, c.port)] = ports.get((c.receiver, c.port), False) or got
+        if turn is None or turn == j:
+            new[name] = sims[name].step(modes[j], {p: ports[(name, p)] for p in inst.machine.input_names})[0]
+    return tuple(new[i.name] for i in net.instances)
+
+
+def _holds(net: Network, sims: dict[str, Binary64], c: Channel, mode: str) -> bool:
+    output = next(o for o in net.instance(c.sender).machine.outputs if o.name == c.output)
+    return bool(sims[c.sender].ev(output.expr, {}, mode))
 
 
 def _after(net: Network, sims: dict[str, Binary64], state: State, new_modes: tuple[str, ...],
@@ -118,7 +138,7 @@ def _after(net: Network, sims: dict[str, Binary64], state: State, new_modes: tup
         for inst, mode in zip(net.instances, new_modes, strict=True)
         for o in inst.machine.outputs
     }
-    keep = max(c.latest for c in net.channels)
+    keep = max(1, *(c.latest for c in net.channels))
     return (
         new_modes,
         tuple((*h, outputs[(c.sender, c.output)])[-keep:] for h, c in zip(sent, net.channels, strict=True)),
@@ -317,6 +337,7 @@ def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
 
 GUIDE_ROWS = {
     "both reliable, a step late": CONFIGURATIONS[0],
+    "A to B immediate, B to A a step late": ((0, 1), (0, 0), ("", ""), ""),
     "A to B lossy, B to A reliable": CONFIGURATIONS[1],
     "both lossy (one in a row)": CONFIGURATIONS[2],
     "both two steps late": CONFIGURATIONS[4],
@@ -423,3 +444,36 @@ def test_a_networks_json_report_holds_what_it_is_and_its_runs_messages(tmp_path:
     jsonschema.Draft202012Validator(schema).validate(plain)
     assert "network" not in plain["specs"][0]
     assert all("messages" not in (r["counterexample"] or {}) for r in plain["specs"][0]["results"])
+
+
+IMMEDIATE = [
+    ((0, 1), (0, 0), ("", ""), ""),
+    ((0, 1), (1, 0), ("", ""), ""),
+    ((0, 1), (0, 0), ("max_delay = 1\n", ""), ""),
+    ((0, 1), (1, 1), ('max_delay = 2\norder = "any"\n', ""), ""),
+    ((0, 1), (0, 0), ("", ""), 'schedule = "interleaved"\n'),
+]
+
+
+@pytest.mark.parametrize(("delay", "lost", "extra", "schedule"), IMMEDIATE)
+def test_an_immediate_channel_agrees_with_the_explorer(
+    tmp_path: Path, delay: tuple[int, int], lost: tuple[int, int], extra: tuple[str, str], schedule: str
+) -> None:
+    """A channel of delay 0 delivers what its sender holds after the same step (its sender steps first): the
+    engine's verdicts and counterexample lengths are the explorer's, which steps the sender first by hand."""
+    loaded = load_spec(_pair(tmp_path, _channels(delay, lost, extra, schedule)), network=True)
+    assert loaded.network is not None
+    shortest = explore(loaded.network, _both_move)
+    result = next(r for r in check_all(loaded.machine) if r.prop == "one-in-the-gap")
+    assert result.verdict == ("holds" if shortest is None else "violated"), (delay, lost, extra, schedule, shortest)
+    if shortest is not None:
+        assert result.counterexample is not None and len(result.counterexample.steps) == shortest
+
+
+def test_a_loop_of_immediate_channels_is_refused_at_its_channel(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = _pair(tmp_path, _channels((0, 0), (0, 0)))
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err.strip().replace(str(tmp_path) + "/", "")
+    assert err.startswith("pair.toml:17:3: error: channel 'ab': immediate channels (delay = 0) make a loop among A, B")

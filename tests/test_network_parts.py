@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
+from mlca_verify.errors import SpecError
 from mlca_verify.logic.induction import Limits
 from mlca_verify.logic.results import Result
 from mlca_verify.network import flatten, part
@@ -44,7 +45,7 @@ def _decide(tmp_path: Path, text: str, pair: tuple[str, str]) -> tuple[Result, i
 
 channels = st.lists(
     st.tuples(
-        st.sampled_from(NAMES), st.sampled_from(NAMES), st.integers(1, 2), st.integers(0, 1), st.integers(0, 1),
+        st.sampled_from(NAMES), st.sampled_from(NAMES), st.integers(0, 2), st.integers(0, 1), st.integers(0, 1),
         st.sampled_from(("fifo", "any")),
     ).filter(lambda c: c[0] != c[1]),
     min_size=1, max_size=3, unique_by=lambda c: (c[0], c[1]),
@@ -57,10 +58,14 @@ schedules = st.sampled_from(("", 'schedule = "interleaved"', 'schedule = "interl
 def test_a_verdict_decided_on_a_part_is_the_whole_networks(
     tmp_path: Path, chans: list[ChannelSpec], pair: tuple[str, str], schedule: str
 ) -> None:
-    """On a random network of three cars (every channel semantics, both schedules), a property of two of them
-    holds exactly when an explorer of the whole network finds no state that breaks it, and a counterexample is as
-    short as the explorer's shortest."""
-    result, shortest = _decide(tmp_path, _text(chans, pair, schedule), pair)
+    """On a random network of three cars (every channel semantics, immediate ones included, both schedules), a
+    property of two of them holds exactly when an explorer of the whole network finds no state that breaks it,
+    and a counterexample is as short as the explorer's shortest."""
+    try:
+        result, shortest = _decide(tmp_path, _text(chans, pair, schedule), pair)
+    except SpecError as err:
+        assume("make a loop" not in str(err))  # a loop of immediate channels is refused (tests/test_network.py)
+        raise
     if shortest is None:
         assert result.verdict == "holds", (chans, pair, schedule, result.detail)
     else:

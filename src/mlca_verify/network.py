@@ -8,11 +8,11 @@ channel a few variables, inputs and assumptions of its own (named with a `~`, wh
   time, the one an int signal `~turn` names, each at least once in every `fairness` steps when that is given;
 - a channel carries an output of one instance, read over its context alone (state, variables, params), to a
   boolean input (several channels into one are heard together: their disjunction) or a signal of another
-  (one channel). What the sender holds after step k reaches the receiver at step
-  k + `delay` (delay 1: the next step), or, with `max_delay`, at any step from k + `delay` to k + `max_delay`
-  that the environment chooses (a signal `<channel>~age`): in order (`fifo`: never older than the message read
-  the step before, which may be read again) or in any order. Before the first message arrives the receiver
-  reads nothing;
+  (one channel). What the sender holds after step k reaches the receiver at step k + `delay` (delay 1: the
+  next step; delay 0: step k itself, the sender stepping first), or, with `max_delay`, at any step from
+  k + `delay` to k + `max_delay` that the environment chooses (a signal `<channel>~age`): in order (`fifo`:
+  never older than the message read the step before, which may be read again) or in any order. Before the
+  first message arrives the receiver reads nothing;
 - with `lost = K`, any message may be lost, at most K in a row (an `[[assume]]` over a loss input and a
   counter); nothing read is false for a boolean input and an invalid sample (outside its range) for a signal,
   which the receiver's own `if_invalid` rules then handle.
@@ -53,9 +53,11 @@ from mlca_verify.model import (
     Transition,
     Var,
     Variable,
+    bodies,
     children,
     names_of,
     reads_context_only,
+    substitute,
     with_children,
 )
 
@@ -219,6 +221,7 @@ class _Parts:
     outputs: list[Output]
     assumptions: list[Assumption]
     heard: dict[str, list[tuple[Channel, Expr]]] = field(default_factory=dict)  # a boolean input: its channels
+    after: dict[str, Expr] = field(default_factory=dict)  # each instance's mode and variables after the step
 
 
 def _instance(inst: Instance, parts: _Parts, turn: Expr | None) -> None:
@@ -245,12 +248,14 @@ def _instance(inst: Instance, parts: _Parts, turn: Expr | None) -> None:
         inst.cite, inst.loc,
     )  # fmt: skip
     parts.variables.append(mode)
+    parts.after[mode.name] = mode.every if mode.every is not None else Var(mode.name)
     for v in m.variables:
         keep: Expr = Var(r.name(v.name)) if v.every is None else r.expr(v.every)
         updates = [(fires[t.id], r.expr(u.expr)) for t in m.transitions for u in t.updates if u.variable == v.name]
         every = _ite_chain(updates, keep)
         every = every if turn is None else Ite(turn, every, Var(r.name(v.name)))
         parts.variables.append(replace(v, name=r.name(v.name), every=every))
+        parts.after[r.name(v.name)] = every
     parts.outputs += [
         replace(o, name=r.name(o.name), expr=r.expr(o.expr), signals=tuple(map(r.name, o.signals))) for o in m.outputs
     ]
@@ -291,6 +296,11 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
         )
     sent = Renamer(ch.sender, sender.states).expr(output.expr)  # what the sender holds, read over its context
     ages = _pipeline(ch, output, sent, parts)  # the message of each age the channel may deliver, by age
+    if ch.delay == 0:  # immediate: what the sender holds after this very step
+        ages = {
+            0: substitute(Renamer(ch.sender, sender.states).expr(_inlined(output.expr, sender)), parts.after),
+            **ages,
+        }
     age: Expr = _int(ch.delay) if ch.latest == ch.delay else _age(ch, parts)
     value = (
         ages[ch.latest]
@@ -306,6 +316,37 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
         )
     else:
         parts.heard.setdefault(port, []).append((ch, BinOp("and", arrived, value)))
+
+
+def _inlined(expr: Expr, m: Machine) -> Expr:
+    """`expr` with the definitions and outputs it reads replaced by their expressions, down to the context."""
+    found = bodies(m)
+    for _ in range(len(found) + 1):  # definitions read only earlier ones: each pass removes a level
+        if not names_of(expr) & found.keys():
+            return expr
+        expr = substitute(expr, found)
+    return expr
+
+
+def immediate_order(net: Network) -> list[str]:
+    """The instances in an order where the sender of every immediate channel (delay 0) steps before its
+    receiver; a loop of immediate channels has no such order (each instance would read what the other computes
+    in the same step) and raises a SpecError at one of its channels."""
+    edges = [(c.sender, c.receiver, c) for c in net.channels if c.delay == 0]
+    order: list[str] = []
+    left = [i.name for i in net.instances]
+    while left:
+        ready = [n for n in left if not any(r == n and s in left for s, r, _ in edges)]
+        if not ready:
+            loop = next(c for s, r, c in edges if s in left and r in left)
+            raise SpecError(
+                loop.loc,
+                f"channel '{loop.id}': immediate channels (delay = 0) make a loop among {', '.join(left)}: "
+                "each would read what another computes in the same step; give one of them a delay",
+            )
+        order.append(ready[0])
+        left.remove(ready[0])
+    return order
 
 
 def _hear(parts: _Parts, open_ports: Collection[str]) -> None:
@@ -344,7 +385,9 @@ def _pipeline(ch: Channel, output: Output, sent: Expr, parts: _Parts) -> dict[in
         )  # fmt: skip
         by_age[k + 1] = Var(name)
     by_age[1] = sent  # read as the sender's output itself
-    return {a: (Cmp("==", m, _int(1)) if flag and a > 1 else m) for a, m in by_age.items() if a >= ch.delay}
+    return {
+        a: (Cmp("==", m, _int(1)) if flag and a > 1 else m) for a, m in by_age.items() if ch.delay <= a <= ch.latest
+    }
 
 
 def _age(ch: Channel, parts: _Parts) -> Expr:
@@ -411,6 +454,7 @@ def _arrived(ch: Channel, age: Expr, parts: _Parts) -> Expr:
 
 def flatten(net: Network) -> Machine:
     """The network as one machine (see the module's docstring), with the network's properties."""
+    immediate_order(net)
     parts = _Parts([], [], [], [], [], [], [])
     turns = _turns(net, parts)
     for inst, turn in zip(net.instances, turns, strict=True):

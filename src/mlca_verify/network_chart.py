@@ -6,7 +6,8 @@ a request; a false one is silence, read as nothing when lost); for a signal, eve
 channel delivers the message of the age the trace chose (its `delay`, or the signal `<channel>~age`); the
 receiver reads it (`heard`) unless the input `<channel>~lost` is true at that step (`lost`). A message may be
 read more than once (a late channel in order may deliver the same one again) or never (`in flight` when the
-trace ends); what is sent after the last step is left out. The chart reads the trace that
+trace ends); what is sent after the last step is left out (but on an immediate channel, where it is read in
+that step). The chart reads the trace that
 `network_report.network_trace` tells, so it shares nothing with the flattening but the names of the channels'
 inputs and signals.
 """
@@ -55,7 +56,8 @@ def messages(net: Network, cx: Counterexample) -> list[Message]:
                 continue  # nothing sent that long ago yet
             heard, lost = reads[j - age]
             (lost if step.inputs.get(f"{ch.id}~lost", False) else heard).append(j)
-        for k, value in enumerate(sent[:-1], start=1):  # what is sent after the last step is never read
+        readable = sent if ch.delay == 0 else sent[:-1]  # what is sent after the last step is read by none but
+        for k, value in enumerate(readable, start=1):  # an immediate channel's receiver
             if value is None or (_boolean(net, ch) and not value):
                 continue
             heard, lost = reads[k]
@@ -141,6 +143,6 @@ def _arrow(label: str, sender: int, receiver: int, width: int) -> str:
 
 
 def _fate(m: Message) -> str:
-    said = [f"read by step {j}" for j in m.heard] + [f"lost at step {j}" for j in m.lost]
+    said = [f"read at step {j}" for j in m.heard] + [f"lost at step {j}" for j in m.lost]
     merged = sorted(said, key=lambda s: int(s.rsplit(" ", 1)[1]))
     return ", ".join(merged) if merged else "in flight when the trace ends"

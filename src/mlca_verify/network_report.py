@@ -115,7 +115,8 @@ def network_assumptions(net: Network) -> list[str]:
 
 def _delivery(ch: Channel) -> str:
     if ch.latest == ch.delay:
-        when = "the next step" if ch.delay == 1 else f"{ch.delay} steps later"
+        exact = {0: "in the same step (its sender steps first)", 1: "the next step"}
+        when = exact.get(ch.delay, f"{ch.delay} steps later")
     else:
         order = "in order" if ch.order == "fifo" else "in any order"
         when = f"{ch.delay} to {ch.latest} steps later, {order} (signal {ch.id}~age)"

@@ -236,7 +236,7 @@ _MESSAGES = (
 
 
 def _message() -> JsonObject:
-    steps: JsonObject = {"type": "integer", "minimum": 2}
+    steps: JsonObject = {"type": "integer", "minimum": 1}
     return _object(
         {
             "channel": _string("The channel's id."),
@@ -265,8 +265,8 @@ def _network() -> JsonObject:
             "id": _string("The channel's id."),
             "from": _string("The sender's output, qualified (A.claims)."),
             "to": _string("The receiver's input or signal, qualified (B.heard)."),
-            "delay": _typed("integer", "The fewest steps a message takes.", minimum=1),
-            "max_delay": _typed("integer", "The most steps a message takes (delay when it is exact).", minimum=1),
+            "delay": _typed("integer", "The fewest steps a message takes (0: read in the step it is sent).", minimum=0),
+            "max_delay": _typed("integer", "The most steps a message takes (delay when it is exact).", minimum=0),
             "order": _enum(("fifo", "any"), "Whether late messages are read in the order sent."),
             "lost": {**count, "description": "The most messages lost in a row."},
             "cite": _string("Its cite."),

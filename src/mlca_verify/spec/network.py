@@ -216,8 +216,8 @@ class NetworkLoader:
                 raise self.fail((*path, "to"), f"signal '{item['to']}' is fed by channel '{other}' already")
             fed[item["to"]] = item["id"]
             delay, lost = item.get("delay", 1), item.get("lost", 0)
-            if not 1 <= delay <= MAX_DELAY:
-                raise self.fail((*path, "delay"), f"'delay' must be from 1 to {MAX_DELAY} steps, got {delay}")
+            if not 0 <= delay <= MAX_DELAY:
+                raise self.fail((*path, "delay"), f"'delay' must be from 0 to {MAX_DELAY} steps, got {delay}")
             if not 0 <= lost <= MAX_LOST:
                 raise self.fail((*path, "lost"), f"'lost' must be from 0 to {MAX_LOST} messages in a row, got {lost}")
             latest = item.get("max_delay", delay)
