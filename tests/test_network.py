@@ -477,3 +477,20 @@ def test_a_loop_of_immediate_channels_is_refused_at_its_channel(
     assert main(["check", str(path)]) == 2
     err = capsys.readouterr().err.strip().replace(str(tmp_path) + "/", "")
     assert err.startswith("pair.toml:17:3: error: channel 'ab': immediate channels (delay = 0) make a loop among A, B")
+
+
+def test_traces_of_a_network_include_the_chart_as_svg(tmp_path: Path) -> None:
+    """`check --traces DIR` writes the chart of a network's counterexample as SVG beside its CSV and VCD: a
+    lifeline per instance, each lost message a dashed line ending in a cross, drawn where it was lost."""
+    import xml.etree.ElementTree as ET
+
+    assert main(["check", str(NETWORKS / "claim_pair.toml"), "--quiet", "--traces", str(tmp_path)]) == 0
+    assert sorted(p.suffix for p in tmp_path.iterdir()) == [".csv", ".svg", ".vcd"]
+    svg = ET.parse(tmp_path / "ClaimPair.one-in-the-gap.svg").getroot()
+    ns = "{http://www.w3.org/2000/svg}"
+    texts = [t.text for t in svg.iter(f"{ns}text")]
+    assert {"A", "B", "step 1", "step 2", "KEEP → CLAIM", "CLAIM → MOVE", "ab", "ba"} <= set(texts)
+    dashed = [line for line in svg.iter(f"{ns}line") if line.get("stroke-dasharray") == "5,3"]
+    crosses = [p for p in svg.iter(f"{ns}path") if p.get("stroke") == "#c00"]
+    assert len(dashed) == len(crosses) == 2
+    assert {line.get("x2") for line in dashed} == {"218", "281"}  # two thirds of the way to B, and to A

@@ -94,7 +94,9 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("--emit-tests", metavar="DIR", help="write a pytest and a C test replaying each violation")
     check.add_argument("--smt2", metavar="DIR", help="write each lemma's query as SMT-LIB 2 (unsat: it holds)")
     check.add_argument(
-        "--traces", metavar="DIR", help="write each counterexample as CSV and as VCD (a waveform, for GTKWave)"
+        "--traces",
+        metavar="DIR",
+        help="write each counterexample as CSV and as VCD (a waveform, for GTKWave); a network's also as an SVG chart",
     )
     check.add_argument("--generated", default="generated", metavar="DIR", help="generated code the tests use")
     _allow_outside(check)
@@ -313,6 +315,9 @@ def _write_traces(checked: list[tuple[LoadedSpec, list[Result]]], out: Path) -> 
                     title = f"{r.prop} ({r.verdict}) of {spec.machine.name}, {len(cx.steps)} steps"
                     write_atomic(out / f"{stem}.vcd", waves.trace_vcd(spec.machine, cx, title, __version__))
                     files.append(f"{stem}.vcd")
+                if spec.network is not None and not cx.point:
+                    write_atomic(out / f"{stem}.svg", network_chart.chart_svg(spec.network, cx, title))
+                    files.append(f"{stem}.svg")
                 say(f"wrote {', '.join(terminal(str(out / f)) for f in files)}")
     except OSError as err:
         raise UsageError.at(out, f"cannot write traces: {err.strerror or err}") from None

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mlca_verify.check_report import number_text
-from mlca_verify.escape import terminal
+from mlca_verify.escape import terminal, xml_markup, xml_text
 from mlca_verify.json_types import JsonObject
 from mlca_verify.logic.results import Counterexample, Number, Result
 from mlca_verify.network import Channel, Network, qualified
@@ -146,3 +146,77 @@ def _fate(m: Message) -> str:
     said = [f"read at step {j}" for j in m.heard] + [f"lost at step {j}" for j in m.lost]
     merged = sorted(said, key=lambda s: int(s.rsplit(" ", 1)[1]))
     return ", ".join(merged) if merged else "in flight when the trace ends"
+
+
+# --- as SVG --------------------------------------------------------------------------------------------
+
+LANE, ROW, TOP, LEFT = 190, 46, 70, 60  # a lifeline's width, a step's height, the header's height, the step column
+
+
+def chart_svg(net: Network, cx: Counterexample, title: str) -> str:
+    """The chart as an SVG drawing: a lifeline per instance, each step's state on it, and each message an arrow
+    from its sender's lifeline, after the step it was sent, to its receiver's at each step it was read (solid) or
+    lost (dashed, ending in a cross); one in flight when the run ends runs dotted to the bottom edge."""
+    names = [i.name for i in net.instances]
+    x = {n: LEFT + LANE * k + LANE // 2 for k, n in enumerate(names)}
+    height = TOP + ROW * (len(cx.steps) + 1)
+    width = LEFT + LANE * len(names)
+    out = [
+        f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+        f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">',
+        f"<title>{_text(title)}</title>",
+        '<defs><marker id="head" markerWidth="8" markerHeight="8" refX="7" refY="4" orient="auto">'
+        '<path d="M0,0 L8,4 L0,8 z"/></marker></defs>',
+        f'<text x="8" y="18" font-weight="bold">{_text(title)}</text>',
+    ]
+    for n in names:
+        out.append(f'<rect x="{x[n] - 60}" y="28" width="120" height="24" fill="#eef" stroke="#446"/>')
+        out.append(f'<text x="{x[n]}" y="44" text-anchor="middle">{_text(n)}</text>')
+        out.append(f'<line x1="{x[n]}" y1="52" x2="{x[n]}" y2="{height - 8}" stroke="#889"/>')
+    for k, step in enumerate(cx.steps, start=1):
+        y = _row(k)
+        out.append(f'<text x="8" y="{y + 4}">step {k}</text>')
+        was, now = _modes(step.state), _modes(step.outcome.next or step.state)
+        for n in names:
+            label = now.get(n, "?") if was.get(n) == now.get(n) else f"{was.get(n, '?')} → {now.get(n, '?')}"
+            out.append(
+                f'<text x="{x[n]}" y="{y + 4}" text-anchor="middle" fill="#000" stroke="#fff" stroke-width="3" '
+                f'paint-order="stroke">{_text(label)}</text>'
+            )
+    for m in messages(net, cx):
+        out += _arrows(net_channel(net, m.channel), m, x, height, _label(net, net_channel(net, m.channel), m))
+    out.append("</svg>")
+    return "\n".join(out) + "\n"
+
+
+def _row(step: int) -> int:
+    return TOP + ROW * step - ROW // 2
+
+
+def _arrows(ch: Channel, m: Message, x: dict[str, int], height: int, label: str) -> list[str]:
+    x1, y1 = x[ch.sender], _row(m.sent) + 10
+    drawn = []
+    for j in m.heard:
+        drawn.append(_arrow_svg((x1, y1), (x[ch.receiver], _row(j) - 10), "", label))
+    for j in m.lost:
+        x2, y2 = (x1 + 2 * x[ch.receiver]) // 3, (y1 + 2 * (_row(j) - 10)) // 3  # two thirds of the way
+        drawn.append(_arrow_svg((x1, y1), (x2, y2), ' stroke-dasharray="5,3"', label, head=False))
+        drawn.append(f'<path d="M{x2 - 5},{y2 - 5} L{x2 + 5},{y2 + 5} M{x2 - 5},{y2 + 5} L{x2 + 5},{y2 - 5}" '
+                     'stroke="#c00" stroke-width="2"/>')  # fmt: skip
+    if not m.heard and not m.lost:
+        drawn.append(_arrow_svg((x1, y1), (x[ch.receiver], height - 8), ' stroke-dasharray="1,3"', label))
+    return drawn
+
+
+def _arrow_svg(start: tuple[int, int], end: tuple[int, int], style: str, label: str, *, head: bool = True) -> str:
+    (x1, y1), (x2, y2) = start, end
+    marker = ' marker-end="url(#head)"' if head else ""
+    mid_x, mid_y = (x1 + x2) // 2, (y1 + y2) // 2 - 4
+    return (
+        f'<line x1="{x1}" y1="{y1}" x2="{x2}" y2="{y2}" stroke="#235"{style}{marker}/>'
+        f'<text x="{mid_x}" y="{mid_y}" text-anchor="middle" font-size="11" fill="#235">{_text(label)}</text>'
+    )
+
+
+def _text(text: str) -> str:
+    return xml_markup(xml_text(text))
