@@ -331,7 +331,9 @@ def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
 ) -> None:
     assert main(["gen", "--out", str(tmp_path / "gen"), str(NETWORKS / "claim_pair.toml")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.endswith("a network spec: `check` decides it; the other commands take a machine spec"), err
+    assert err.endswith(
+        "a network spec: `check` decides it and `diagram` draws it; the other commands take a machine spec"
+    ), err
     assert not (tmp_path / "gen").exists()
 
 
@@ -494,3 +496,26 @@ def test_traces_of_a_network_include_the_chart_as_svg(tmp_path: Path) -> None:
     crosses = [p for p in svg.iter(f"{ns}path") if p.get("stroke") == "#c00"]
     assert len(dashed) == len(crosses) == 2
     assert {line.get("x2") for line in dashed} == {"218", "281"}  # two thirds of the way to B, and to A
+
+
+def test_diagram_draws_a_network_and_each_machine_in_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """DOT: a cluster per instance with its machine's states and transitions, a dashed edge per channel between
+    clusters with what it carries and its delivery (Graphviz lays it out as SVG); Mermaid: a composite state per
+    instance; SCXML: refused in one line."""
+    pair = str(NETWORKS / "claim_pair.toml")
+    assert main(["diagram", pair]) == 0
+    dot = capsys.readouterr().out
+    assert dot.count("subgraph ") == 2 and dot.count('-> "A.CLAIM"') == 1 and dot.count('-> "B.CLAIM"') == 1
+    channels = [line for line in dot.splitlines() if "ltail=" in line]
+    assert len(channels) == 2 and all("style=dashed" in line for line in channels)
+    assert 'label="ab: claiming -> other_claims\\n1 step, at most 1 lost in a row"' in channels[0]
+    assert main(["diagram", pair, "--format", "svg", "--out", str(tmp_path / "net.svg")]) == 0
+    assert "<svg" in (tmp_path / "net.svg").read_text(encoding="utf-8")
+    assert main(["diagram", pair, "--format", "mermaid"]) == 0
+    mermaid = capsys.readouterr().out
+    assert "    state A {" in mermaid and "        i1_s0 : KEEP" in mermaid
+    assert "    A --> B: ab claiming to other_claims, 1 step, at most 1 lost in a row" in mermaid
+    assert main(["diagram", pair, "--format", "scxml"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.endswith("a network has no SCXML form (its channels are not SCXML's): "
+                                                        "draw it as dot, svg or mermaid")  # fmt: skip

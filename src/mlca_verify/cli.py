@@ -132,7 +132,9 @@ def _parser() -> argparse.ArgumentParser:
         "--sequences", type=whole_number(1, 100_000), default=200, help="random input sequences to run (default 200)"
     )
 
-    diagram = sub.add_parser("diagram", help="draw a machine: Graphviz DOT, Mermaid, W3C SCXML, or SVG")
+    diagram = sub.add_parser(
+        "diagram", help="draw a machine (Graphviz DOT, Mermaid, W3C SCXML, or SVG), or a network of machines"
+    )
     diagram.add_argument("spec", metavar="SPEC", help="spec file")
     diagram.add_argument("--format", choices=[*FORMATS, "svg"], default="dot", help="output format (default dot)")
     diagram.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
@@ -524,12 +526,17 @@ def _emit(text: str, out: str | None) -> None:
 
 
 def cmd_diagram(args: argparse.Namespace) -> int:
-    from mlca_verify.diagram import Undrawable
+    from mlca_verify.diagram import Undrawable, render_network
     from mlca_verify.diagram import render as render_diagram
 
-    machine = load_spec(args.spec, compare=False).machine
+    loaded = load_spec(args.spec, compare=False, network=True)
+    net = loaded.network
+
+    def draw(fmt: str) -> str:
+        return render_diagram(loaded.machine, fmt) if net is None else render_network(net, fmt)
+
     try:
-        text = svg_of(render_diagram(machine, "dot")) if args.format == "svg" else render_diagram(machine, args.format)
+        text = svg_of(draw("dot")) if args.format == "svg" else draw(args.format)
     except Undrawable as err:
         raise UsageError.at(args.spec, str(err)) from None
     _emit(text, args.out)

@@ -24,6 +24,7 @@ from mlca_verify.model import (
     as_binop,
     show,
 )
+from mlca_verify.network import Channel, Network
 from mlca_verify.statechart import Undrawable, head, transition_note
 
 FORMATS = ("dot", "mermaid", "scxml")
@@ -147,4 +148,87 @@ def render(m: Machine, fmt: str) -> str:
     return {"dot": to_dot, "mermaid": to_mermaid, "scxml": to_scxml}[fmt](m)
 
 
-__all__ = ["FORMATS", "Undrawable", "caption", "js_expr", "render"]
+# --- a network of machines -----------------------------------------------------------------------------------
+
+
+def channel_label(ch: Channel) -> str:
+    """`ab: claiming -> other_claims`, then on a line of its own its delivery: `1 step`, `0 to 2 steps, any
+    order`, `at most 1 lost in a row`."""
+    steps = f"{ch.delay} step" + ("s" if ch.delay != 1 else "")
+    if ch.latest != ch.delay:
+        steps = f"{ch.delay} to {ch.latest} steps" + (", any order" if ch.order == "any" else "")
+    lost = f", at most {ch.lost} lost in a row" if ch.lost else ""
+    return f"{ch.id}: {ch.output} -> {ch.port}\n{steps}{lost}"
+
+
+def network_caption(net: Network, channels: str = "an edge between instances") -> str:
+    schedule = "instances step together" if net.schedule == "synchronous" else "one instance steps at a time"
+    fair = f", each within {net.fairness} steps" if net.fairness else ""
+    cited = f" ({net.cite})" if net.cite else ""
+    return f"{net.name}{cited}: {schedule}{fair}; {channels}: a channel (what it carries, its delay and losses)"
+
+
+def network_dot(net: Network) -> str:
+    """The network as DOT: a cluster per instance holding its machine's states and transitions, and each channel
+    a dashed edge from its sender's cluster to its receiver's."""
+    lines = [
+        "digraph network {",
+        "  rankdir=LR; compound=true;",
+        f"  label={_dot_str(network_caption(net, 'a dashed blue edge'))}; labelloc=b; fontsize=10;",
+        '  node [shape=ellipse, fontname="Helvetica"]; edge [fontname="Helvetica", fontsize=9];',
+    ]
+    for inst in net.instances:
+        m = inst.machine
+        node = {s: _dot_str(f"{inst.name}.{s}") for s in m.states}
+        start = _dot_str(f"{inst.name}.__start")
+        lines += [
+            f"  subgraph {_dot_str('cluster_' + inst.name)} {{",
+            f"    label={_dot_str(f'{inst.name}: {m.name} ({inst.spec})')}; tooltip={_dot_str(inst.cite)};",
+            f'    {start} [shape=point, label=""];',
+            f"    {start} -> {node[m.initial]};",
+        ]
+        lines += [f"    {node[s]} [label={_dot_str(s)}];" for s in m.states]
+        for state, priority, t in _edges(m):
+            label = _dot_str(f"{clip(_label(m, priority, t), DOT_TEXT_LIMIT - len(t.id) - 3)}\n[{t.id}]")
+            lines.append(f"    {node[state]} -> {node[t.target]} [label={label}, tooltip={_dot_str(t.cite)}];")
+        lines.append("  }")
+    for ch in net.channels:
+        sender, receiver = net.instance(ch.sender).machine, net.instance(ch.receiver).machine
+        tail, head_ = _dot_str(f"{ch.sender}.{sender.initial}"), _dot_str(f"{ch.receiver}.{receiver.initial}")
+        ends = f"ltail={_dot_str('cluster_' + ch.sender)}, lhead={_dot_str('cluster_' + ch.receiver)}"
+        label = _dot_str(channel_label(ch))
+        lines.append(
+            f"  {tail} -> {head_} [{ends}, label={label}, style=dashed, color=blue, fontcolor=blue, "
+            f"tooltip={_dot_str(ch.cite)}];"
+        )
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def network_mermaid(net: Network) -> str:
+    """The network as a Mermaid state diagram: a composite state per instance (its states numbered, so that two
+    instances of one machine do not share a name), and each channel an edge between two composites."""
+    lines = ["stateDiagram-v2", f"    %% {one_line(network_caption(net))}"]
+    for k, inst in enumerate(net.instances):
+        m = inst.machine
+        ids = {s: f"i{k}_s{j}" for j, s in enumerate(m.states)}
+        lines.append(f"    state {inst.name} {{")
+        lines += [f"        {ids[s]} : {s}" for s in m.states]
+        lines.append(f"        [*] --> {ids[m.initial]}")
+        for state, priority, t in _edges(m):
+            label = _label(m, priority, t).replace("<->", "iff").replace("->", "implies").replace(":", " ")
+            lines.append(f"        {ids[state]} --> {ids[t.target]}: {one_line(label)}")
+        lines.append("    }")
+    for ch in net.channels:
+        label = one_line(channel_label(ch).replace("\n", ", ").replace("->", "to").replace(":", ""))
+        lines.append(f"    {ch.sender} --> {ch.receiver}: {label}")
+    return "\n".join(lines) + "\n"
+
+
+def render_network(net: Network, fmt: str) -> str:
+    if fmt == "scxml":
+        raise Undrawable("a network has no SCXML form (its channels are not SCXML's): draw it as dot, svg or mermaid")
+    return network_dot(net) if fmt == "dot" else network_mermaid(net)
+
+
+__all__ = ["FORMATS", "Undrawable", "caption", "js_expr", "network_dot", "network_mermaid", "render", "render_network"]
