@@ -24,7 +24,7 @@ LAYERS: tuple[frozenset[str], ...] = tuple(
         "spec logic statechart",  # the loader and the engine: neither imports the other
         "diagram spec_diff",
         "check_report network_report waves codegen",
-        "ci_formats loading network_chart",
+        "ci_formats loading network_chart network_diff",
         "conformance regression_tests",
         "testgen",
         "evidence",

@@ -332,7 +332,7 @@ def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
     assert main(["gen", "--out", str(tmp_path / "gen"), str(NETWORKS / "claim_pair.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith(
-        "a network spec: `check` decides it and `diagram` draws it; the other commands take a machine spec"
+        "a network spec: `check`, `diagram` and `diff` take it; the other commands take a machine spec"
     ), err
     assert not (tmp_path / "gen").exists()
 
@@ -519,3 +519,43 @@ def test_diagram_draws_a_network_and_each_machine_in_it(tmp_path: Path, capsys: 
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.endswith("a network has no SCXML form (its channels are not SCXML's): "
                                                         "draw it as dot, svg or mermaid")  # fmt: skip
+
+
+def _diff(tmp_path: Path, old: str, new: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
+    (tmp_path / "old").mkdir(exist_ok=True)
+    (tmp_path / "new").mkdir(exist_ok=True)
+    left, right = _pair(tmp_path / "old", old), _pair(tmp_path / "new", new)
+    capsys.readouterr()
+    code = main(["diff", str(left), str(right)])
+    return code, capsys.readouterr().out
+
+
+def test_diff_of_two_networks_judges_each_channel_by_the_runs_it_allows(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A channel that may lose fewer messages narrows what every verdict assumes (a regression, though the
+    verdict is now fixed); the reverse widens it, and the verdict it loses is the regression; a channel that may
+    also be later, with no verdict changed, is no regression."""
+    lossy, lossless = _channels((1, 1), (1, 1)), _channels((1, 1), (1, 0))
+    code, out = _diff(tmp_path, lossy, lossless, capsys)
+    assert code == 1 and "one-in-the-gap  violated  holds  fixed" in out
+    assert "  channel ba: fewer environments: every guarantee is weaker (a regression)" in out
+    assert "    new: B.claiming to A.other_claims, 1 step late; none lost" in out
+    assert out.rstrip().endswith("assumptions narrowed: channel ba allow fewer or other environments, so every "
+                                 "guarantee is weaker (a regression)")  # fmt: skip
+    code, out = _diff(tmp_path, lossless, lossy, capsys)
+    assert code == 1 and "  channel ba: more environments: every guarantee is stronger" in out
+    assert out.rstrip().endswith("1 regression: one-in-the-gap held before and no longer hold")
+    code, out = _diff(tmp_path, lossy, _channels((1, 1), (1, 1), ('max_delay = 2\norder = "any"\n', "")), capsys)
+    assert code == 0 and "  channel ab: more environments: every guarantee is stronger" in out, out
+    assert "    new: A.claiming to B.other_claims, 1 to 2 steps late, in any order; at most 1 lost in a row" in out
+    code, out = _diff(tmp_path, lossy, _channels((2, 1), (1, 1)), capsys)
+    assert code == 1 and "  channel ab: other environments, neither fewer nor more (a regression)" in out
+    code, out = _diff(tmp_path, lossy, _channels((1, 1), (1, 1), schedule='schedule = "interleaved"\n'), capsys)
+    assert code == 1 and "  schedule: other environments, neither fewer nor more (a regression)" in out
+
+
+def test_diff_of_a_network_and_a_machine_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["diff", str(NETWORKS / "claim_pair.toml"), str(NETWORKS / "claim_car.toml")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("claim_car.toml: error: a machine spec: `diff` compares a network with a network"), err

@@ -288,7 +288,8 @@ def regions_text(regions: Sequence[Region], left_name: str, right_name: str, nam
     return table(["state", "when", left_name, right_name, witness], rows, "  ")
 
 
-def regression_text(changes: Sequence[VerdictChange], transitions: Sequence[TransitionChange]) -> str:
+def regression_text(changes: Sequence[VerdictChange], transitions: Sequence[TransitionChange] | None) -> str:
+    """The verdicts that changed, and the transitions (None: a network, which has none of its own)."""
     parts = []
     if changes:
         rows = [[c.prop, c.old or "-", c.new or "-", c.label] for c in changes]
@@ -298,7 +299,7 @@ def regression_text(changes: Sequence[VerdictChange], transitions: Sequence[Tran
     if transitions:
         rows = [[t.id, t.change, t.old or "-", t.new or "-"] for t in transitions]
         parts += ["transitions (matched by id):", table(["id", "change", "old", "new"], rows, "  "), ""]
-    else:
+    elif transitions is not None:
         parts += ["transitions: none added, removed or changed", ""]
     return "\n".join(parts)
 

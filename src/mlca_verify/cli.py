@@ -102,7 +102,9 @@ def _parser() -> argparse.ArgumentParser:
     _allow_outside(check)
 
     diff = sub.add_parser(
-        "diff", help="regression gate: verdicts, transitions and behaviour that changed from OLD to NEW"
+        "diff",
+        help="regression gate: verdicts, transitions and behaviour that changed from OLD to NEW (of a network: "
+        "its verdicts and what its channels allow)",
     )
     diff.add_argument("left", metavar="OLD", help="the spec before the change")
     diff.add_argument("right", metavar="NEW", help="the spec after the change")
@@ -346,7 +348,9 @@ def _emit_tests(checked: list[tuple[LoadedSpec, list[Result]]], generated: Path,
 def cmd_diff(args: argparse.Namespace) -> int:
     from mlca_verify.logic.property_diff import property_changes
 
-    old, new = (load_spec(p, confine=not args.allow_outside) for p in (args.left, args.right))
+    old, new = (load_spec(p, confine=not args.allow_outside, network=True) for p in (args.left, args.right))
+    if old.network is not None or new.network is not None:
+        return _diff_networks(old, new, args.timeout_ms)
     changes = verdict_changes(check_all(old.machine, args.timeout_ms), check_all(new.machine, args.timeout_ms))
     say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
     say(check_report.regression_text(changes, transition_changes(old.machine, new.machine)))
@@ -375,6 +379,40 @@ def cmd_diff(args: argparse.Namespace) -> int:
     if regressions or weakened or assumed:
         return EXIT_FINDING
     say(f"\nno regression: every property that held before still holds ({count(len(changes), 'verdict')} changed)")
+    return EXIT_OK
+
+
+def _diff_networks(old: LoadedSpec, new: LoadedSpec, timeout_ms: int) -> int:
+    """Two versions of a network: its own verdicts, what it assumes (schedule, channels) by the runs each allows,
+    its instances, and its properties by meaning."""
+    from mlca_verify.logic.property_diff import property_changes
+    from mlca_verify.network_diff import network_changes, network_changes_text
+
+    if old.network is None or new.network is None:
+        machine = old if old.network is None else new
+        raise UsageError.at(Path(machine.path), "a machine spec: `diff` compares a network with a network")
+    limits = Limits(timeout_ms=timeout_ms)
+    before, after = (check_network(s.network, s.machine, limits) for s in (old, new) if s.network is not None)
+    changes = verdict_changes(before, after)
+    say(f"old: {old.path} ({old.machine.name})\nnew: {new.path} ({new.machine.name})\n")
+    say(check_report.regression_text(changes, None))
+    assumed = network_changes(old.network, new.network)
+    say(network_changes_text(assumed))
+    meaning = property_changes(old.machine, new.machine, timeout_ms, assumptions=False)
+    say(check_report.meaning_text(meaning))
+    regressions = [c.prop for c in changes if c.regression]
+    weakened = [c.prop for c in meaning if c.regression and c.prop not in regressions]
+    narrowed = [c.what for c in assumed if c.regression]
+    if regressions:
+        say(f"{count(len(regressions), 'regression')}: {', '.join(regressions)} held before and no longer hold")
+    if weakened:
+        say(f"{len(weakened)} weakened: {', '.join(weakened)} now guarantee less than before (a regression)")
+    if narrowed:
+        say(f"assumptions narrowed: {', '.join(narrowed)} allow fewer or other environments, so every guarantee "
+            "is weaker (a regression)")  # fmt: skip
+    if regressions or weakened or narrowed:
+        return EXIT_FINDING
+    say(f"no regression: every property that held before still holds ({count(len(changes), 'verdict')} changed)")
     return EXIT_OK
 
 

@@ -92,8 +92,9 @@ def _bound(live: Liveness) -> Expr | None:
     return None if live.within is None else Num(Fraction(live.within), False)
 
 
-def property_changes(old: Machine, new: Machine, timeout_ms: int) -> list[PropertyChange]:
-    """Each declared property present in both whose text changed, with how its meaning changed."""
+def property_changes(old: Machine, new: Machine, timeout_ms: int, *, assumptions: bool = True) -> list[PropertyChange]:
+    """Each declared property present in both whose text changed, with how its meaning changed; and, with
+    `assumptions`, the `[[assume]]`s together (a network's are its channels', which `network_diff` compares)."""
     shared = SharedValuation(old, new)
     after_inv = {p.id: p for p in new.invariants}
     after_live = {p.id: p for p in new.liveness}
@@ -106,7 +107,7 @@ def property_changes(old: Machine, new: Machine, timeout_ms: int) -> list[Proper
         lv = after_live.get(live.id)
         if lv is not None and _text(live) != _text(lv):
             changes.append(_liveness_change(shared, (old, new), live, lv, timeout_ms))
-    assumed = _assumption_change(shared, (old, new), timeout_ms)
+    assumed = _assumption_change(shared, (old, new), timeout_ms) if assumptions else None
     return changes if assumed is None else [*changes, assumed]
 
 
