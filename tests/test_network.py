@@ -559,3 +559,21 @@ def test_diff_of_a_network_and_a_machine_is_refused(tmp_path: Path, capsys: pyte
     assert main(["diff", str(NETWORKS / "claim_pair.toml"), str(NETWORKS / "claim_car.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith("claim_car.toml: error: a machine spec: `diff` compares a network with a network"), err
+
+
+def test_a_networks_sarif_finding_points_at_the_channels_that_lost_its_messages(tmp_path: Path) -> None:
+    sarif = tmp_path / "check.sarif"
+    assert main(["check", str(NETWORKS / "claim_pair.toml"), "--quiet", "--sarif", str(sarif)]) == 0
+    log = json.loads(sarif.read_text(encoding="utf-8"))
+    schema = json.loads((ROOT / "tests" / "schemas" / "sarif-2.1.0-core.schema.json").read_text())
+    jsonschema.validate(log, schema, format_checker=jsonschema.FormatChecker())
+    (finding,) = log["runs"][0]["results"]
+    lines = PAIR.splitlines()
+    related = [
+        (r["physicalLocation"]["region"]["startLine"], r["message"]["text"]) for r in finding["relatedLocations"]
+    ]
+    assert [lines[n - 1 : n + 1] for n, _ in related] == [["[[channel]]", 'id = "ab"'], ["[[channel]]", 'id = "ba"']]
+    assert [t for _, t in related] == [
+        "channel ab: the message sent after step 1 is lost at step 2",
+        "channel ba: the message sent after step 1 is lost at step 2",
+    ]

@@ -3,7 +3,7 @@ finding located at the line of the spec element it is about, so that review tool
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 from xml.etree import ElementTree as ET
 
@@ -108,10 +108,15 @@ def junit_xml(checked: Sequence[Checked]) -> str:
     return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def sarif(checked: Sequence[Checked], uncited_elements: Sequence[tuple[str, Loc, str]] = ()) -> dict[str, Any]:
+def sarif(
+    checked: Sequence[Checked],
+    uncited_elements: Sequence[tuple[str, Loc, str]] = (),
+    related: Mapping[tuple[str, str], Sequence[tuple[Loc, str]]] | None = None,
+) -> dict[str, Any]:
     """A SARIF 2.1.0 log: a result for every violated or unknown verdict. A violation the spec expects is
     reported with an in-source suppression (its `expect`), so tools show it as accepted, not new. Each uncited
-    element given (spec path, where, what) is a warning at its own line."""
+    element given (spec path, where, what) is a warning at its own line. `related` adds, by (spec path,
+    property), the other places a finding involves (a network's channels that lost its messages)."""
     results: list[dict[str, Any]] = []
     for path, machine, checked_results in checked:
         for r in checked_results:
@@ -133,6 +138,19 @@ def sarif(checked: Sequence[Checked], uncited_elements: Sequence[tuple[str, Loc,
                 ],
                 "properties": {"verdict": r.verdict, "expected": r.expected, "cite": r.cite},
             }
+            others = (related or {}).get((path, r.prop), ())
+            if others:
+                entry["relatedLocations"] = [
+                    {
+                        "id": k,
+                        "physicalLocation": {
+                            "artifactLocation": {"uri": path},
+                            "region": {"startLine": where.line, "startColumn": where.col},
+                        },
+                        "message": {"text": text},
+                    }
+                    for k, (where, text) in enumerate(others)
+                ]
             if r.ok and r.verdict != "holds":
                 entry["suppressions"] = [{"kind": "inSource", "justification": f'expect = "{r.expected}" in the spec'}]
             results.append(entry)

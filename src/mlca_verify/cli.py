@@ -275,7 +275,13 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.junit:
         write_text(args.junit, ci_formats.junit_xml(for_ci))
     if args.sarif:
-        write_json(args.sarif, ci_formats.sarif(for_ci, missing))
+        related = {
+            (s.path, prop): places
+            for s, r in checked
+            if s.network is not None
+            for prop, places in network_chart.lost_at(s.network, r).items()
+        }
+        write_json(args.sarif, ci_formats.sarif(for_ci, missing, related))
     if args.emit_tests:
         _emit_tests(checked, Path(args.generated), Path(args.emit_tests))
     if args.smt2:

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mlca_verify.check_report import number_text
+from mlca_verify.errors import Loc
 from mlca_verify.escape import terminal, xml_markup, xml_text
 from mlca_verify.json_types import JsonObject
 from mlca_verify.logic.results import Counterexample, Number, Result
@@ -78,6 +79,19 @@ def messages_json(net: Network, results: Sequence[Result]) -> dict[str, list[Jso
         for r in results
         if r.counterexample is not None and r.counterexample.steps and not r.counterexample.point
     }
+
+
+def lost_at(net: Network, results: Sequence[Result]) -> dict[str, list[tuple[Loc, str]]]:
+    """Each channel that lost a message of a result's run, at the channel's place, by property."""
+    found: dict[str, list[tuple[Loc, str]]] = {}
+    for r in results:
+        if r.counterexample is None or r.counterexample.point:
+            continue
+        for m in messages(net, r.counterexample):
+            for j in m.lost:
+                text = f"channel {m.channel}: the message sent after step {m.sent} is lost at step {j}"
+                found.setdefault(r.prop, []).append((net_channel(net, m.channel).loc, text))
+    return found
 
 
 def charts(net: Network, results: Sequence[Result]) -> dict[str, str]:
