@@ -166,6 +166,12 @@ CONFIGURATIONS = [
     ((1, 1), (0, 0), ("", ""), 'schedule = "interleaved"\n'),
     ((1, 1), (1, 1), ("", ""), 'schedule = "interleaved"\nfairness = 2\n'),
     ((2, 1), (0, 0), ("max_delay = 3\n", ""), 'schedule = "interleaved"\nfairness = 3\n'),
+    # immediate: A's claim read by B in the step A makes it (A steps first)
+    ((0, 1), (0, 0), ("", ""), ""),
+    ((0, 1), (1, 0), ("", ""), ""),
+    ((0, 1), (0, 0), ("max_delay = 1\n", ""), ""),
+    ((0, 1), (1, 1), ('max_delay = 2\norder = "any"\n', ""), ""),
+    ((0, 1), (0, 0), ("", ""), 'schedule = "interleaved"\n'),
 ]
 
 
@@ -173,8 +179,9 @@ CONFIGURATIONS = [
 def test_the_engine_agrees_with_a_brute_force_explorer_of_the_network(
     tmp_path: Path, delay: tuple[int, int], lost: tuple[int, int], extra: tuple[str, str], schedule: str
 ) -> None:
-    """For each delay, loss, order and schedule of the two channels: the engine's verdict on the invariant, and
-    its counterexample's length, are those of an explorer that steps each car on its own."""
+    """For each delay (0: immediate, the sender stepping first), loss, order and schedule of the two channels: the
+    engine's verdict on the invariant, and its counterexample's length, are those of an explorer that steps each
+    car on its own."""
     loaded = load_spec(_pair(tmp_path, _channels(delay, lost, extra, schedule)), network=True)
     assert loaded.network is not None
     shortest = explore(loaded.network, _both_move)
@@ -446,30 +453,6 @@ def test_a_networks_json_report_holds_what_it_is_and_its_runs_messages(tmp_path:
     jsonschema.Draft202012Validator(schema).validate(plain)
     assert "network" not in plain["specs"][0]
     assert all("messages" not in (r["counterexample"] or {}) for r in plain["specs"][0]["results"])
-
-
-IMMEDIATE = [
-    ((0, 1), (0, 0), ("", ""), ""),
-    ((0, 1), (1, 0), ("", ""), ""),
-    ((0, 1), (0, 0), ("max_delay = 1\n", ""), ""),
-    ((0, 1), (1, 1), ('max_delay = 2\norder = "any"\n', ""), ""),
-    ((0, 1), (0, 0), ("", ""), 'schedule = "interleaved"\n'),
-]
-
-
-@pytest.mark.parametrize(("delay", "lost", "extra", "schedule"), IMMEDIATE)
-def test_an_immediate_channel_agrees_with_the_explorer(
-    tmp_path: Path, delay: tuple[int, int], lost: tuple[int, int], extra: tuple[str, str], schedule: str
-) -> None:
-    """A channel of delay 0 delivers what its sender holds after the same step (its sender steps first): the
-    engine's verdicts and counterexample lengths are the explorer's, which steps the sender first by hand."""
-    loaded = load_spec(_pair(tmp_path, _channels(delay, lost, extra, schedule)), network=True)
-    assert loaded.network is not None
-    shortest = explore(loaded.network, _both_move)
-    result = next(r for r in check_all(loaded.machine) if r.prop == "one-in-the-gap")
-    assert result.verdict == ("holds" if shortest is None else "violated"), (delay, lost, extra, schedule, shortest)
-    if shortest is not None:
-        assert result.counterexample is not None and len(result.counterexample.steps) == shortest
 
 
 def test_a_loop_of_immediate_channels_is_refused_at_its_channel(
