@@ -118,7 +118,8 @@ def _step_all(net: Network, sims: dict[str, Binary64], state: State, heard: dict
             if age == 0:
                 got = not lost and _holds(net, sims, c, new[c.sender])
             else:
-                got = len(sent[k]) >= age and not lost and sent[k][-age]
+                again = not c.duplicate and age == state[3][k] + 1  # the message read the step before
+                got = len(sent[k]) >= age and not lost and not again and sent[k][-age]
             ports[(c.receiver, c.port)] = ports.get((c.receiver, c.port), False) or got
         if turn is None or turn == j:
             new[name] = sims[name].step(modes[j], {p: ports[(name, p)] for p in inst.machine.input_names})[0]
@@ -172,6 +173,9 @@ CONFIGURATIONS = [
     ((0, 1), (0, 0), ("max_delay = 1\n", ""), ""),
     ((0, 1), (1, 1), ('max_delay = 2\norder = "any"\n', ""), ""),
     ((0, 1), (0, 0), ("", ""), 'schedule = "interleaved"\n'),
+    # a late message read at most once: a step that would read the one before again reads nothing
+    ((1, 1), (0, 0), ("max_delay = 2\nduplicate = false\n", ""), ""),
+    ((1, 1), (0, 0), ("max_delay = 3\nduplicate = false\n", "max_delay = 2\nduplicate = false\n"), ""),
 ]
 
 
@@ -308,6 +312,10 @@ def test_param_overrides_reach_the_instance(tmp_path: Path) -> None:
             ("lost = 1", 'lost = 1\norder = "lifo"'),
             "pair.toml:22:9: error: 'order' must be one of fifo, any, got 'lifo'",
         ),
+        (
+            ("lost = 1", 'lost = 1\nmax_delay = 2\norder = "any"\nduplicate = false'),
+            "pair.toml:24:13: error: 'duplicate = false' needs order = \"fifo\"",
+        ),
         (("A.state == MOVE and", "A.state == MOVED and"), "pair.toml:33:25: error: unknown state 'A.MOVED'"),
         (("B.state == MOVE)", "B.speed > 1)"), "pair.toml:33:34: error: unknown name 'B.speed' in invariant"),
         (('spec = "claim_car.toml"', 'spec = "nowhere.toml"'), "pair.toml:10:8: error: instance's spec 'nowhere"),
@@ -440,7 +448,7 @@ def test_a_networks_json_report_holds_what_it_is_and_its_runs_messages(tmp_path:
     assert [i["name"] for i in entry["network"]["instances"]] == ["A", "B"]
     assert entry["network"]["channels"][0] == {
         "id": "ab", "from": "A.claiming", "to": "B.other_claims", "delay": 1, "max_delay": 1, "order": "fifo",
-        "lost": 1, "cite": "corpus",
+        "duplicate": True, "lost": 1, "cite": "corpus",
     }  # fmt: skip
     (result,) = entry["results"]
     assert result["counterexample"]["messages"] == [

@@ -99,6 +99,7 @@ class Channel:
     loc: Loc = IN_MEMORY
     max_delay: int | None = None  # at most this many steps late (None: exactly `delay`)
     order: Order = "fifo"
+    duplicate: bool = True  # fifo: a late step may read again the message read the step before (else nothing)
 
     @property
     def latest(self) -> int:
@@ -308,6 +309,8 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
         else _ite_chain([(Cmp("==", age, _int(a)), m) for a, m in ages.items()], ages[ch.latest])
     )
     arrived = _arrived(ch, age, parts)
+    if not ch.duplicate and ch.latest > ch.delay:  # a message read the step before is not read again
+        arrived = BinOp("and", arrived, Cmp("<=", age, Var(f"{ch.id}~last")))
     port = qualified(ch.receiver, ch.port)
     if any(s.name == ch.port for s in receiver.signals):
         tie = Ite(arrived, Cmp("==", Var(port), value), Not(Call("valid", (Var(port),))))

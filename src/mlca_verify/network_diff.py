@@ -38,6 +38,7 @@ def delivery(ch: Channel) -> str:
     late = f"{ch.delay} step{'s' if ch.delay != 1 else ''} late"
     if ch.latest != ch.delay:
         late = f"{ch.delay} to {ch.latest} steps late, " + ("in order" if ch.order == "fifo" else "in any order")
+        late += "" if ch.duplicate or ch.order != "fifo" else ", each read at most once"
     lost = f"at most {ch.lost} lost in a row" if ch.lost else "none lost"
     return f"{qualified(ch.sender, ch.output)} to {qualified(ch.receiver, ch.port)}, {late}; {lost}"
 
@@ -46,8 +47,10 @@ def _runs_within(inner: Channel, outer: Channel) -> bool:
     """Every run `inner` allows, `outer` allows: ages within, losses within, and an order kept where `outer`
     keeps one (a single age keeps every order)."""
     ages = outer.delay <= inner.delay and inner.latest <= outer.latest
-    order = outer.order == "any" or inner.order == "fifo" or inner.latest == inner.delay
-    return ages and order and inner.lost <= outer.lost
+    single = inner.latest == inner.delay
+    order = outer.order == "any" or inner.order == "fifo" or single
+    once = single or inner.duplicate == outer.duplicate  # reading nothing, or the message before: no subset
+    return ages and order and once and inner.lost <= outer.lost
 
 
 def _channel(old: Channel, new: Channel) -> NetworkChange | None:

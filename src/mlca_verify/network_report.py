@@ -91,6 +91,7 @@ def network_json(net: Network) -> JsonObject:
                 "delay": c.delay,
                 "max_delay": c.latest,
                 "order": c.order,
+                "duplicate": c.duplicate,
                 "lost": c.lost,
                 "cite": c.cite,
             }
@@ -119,6 +120,7 @@ def _delivery(ch: Channel) -> str:
         when = exact.get(ch.delay, f"{ch.delay} steps later")
     else:
         order = "in order" if ch.order == "fifo" else "in any order"
+        order += "" if ch.duplicate or ch.order != "fifo" else ", each read at most once"
         when = f"{ch.delay} to {ch.latest} steps later, {order} (signal {ch.id}~age)"
     lost = f"; at most {ch.lost} lost in a row (input {ch.id}~lost)" if ch.lost else "; none lost"
     return when + lost

@@ -268,6 +268,7 @@ def _network() -> JsonObject:
             "delay": _typed("integer", "The fewest steps a message takes (0: read in the step it is sent).", minimum=0),
             "max_delay": _typed("integer", "The most steps a message takes (delay when it is exact).", minimum=0),
             "order": _enum(("fifo", "any"), "Whether late messages are read in the order sent."),
+            "duplicate": _boolean("In order: whether a late step may read again the message read the step before."),
             "lost": {**count, "description": "The most messages lost in a row."},
             "cite": _string("Its cite."),
         },

@@ -51,7 +51,7 @@ VERDICTS = ("holds", "violated", "unknown")
 TABLES = {
     "network": {"name", "schedule", "fairness", "timeout_ms", "doc", "cite"},
     "instances": {"spec", "params", "doc", "cite"},
-    "channel": {"id", "from", "to", "delay", "max_delay", "order", "lost", "doc", "cite"},
+    "channel": {"id", "from", "to", "delay", "max_delay", "order", "duplicate", "lost", "doc", "cite"},
     "invariant": {"id", "expr", "expect", "doc", "cite"},
     "liveness": {"id", "assume", "goal", "within", "expect", "doc", "cite"},
 }
@@ -97,23 +97,28 @@ class NetworkLoader:
             for index, item in enumerate(items):
                 self.table((key, index), item, key)
 
+    def value(self, path: KeyPath, key: str, value: object) -> None:
+        """A key's value has its type: a table of params, an integer, a boolean or a string."""
+        integer = isinstance(value, int) and not isinstance(value, bool)
+        if key == "params" and not isinstance(value, dict):
+            raise self.fail((*path, key), "'params' must be a table of numbers")
+        if key in ("delay", "max_delay", "lost", "fairness", "timeout_ms") and not integer:
+            raise self.fail((*path, key), f"'{key}' must be an integer")
+        if key == "within" and not integer:
+            raise self.fail((*path, key), "'within' must be an integer number of steps")
+        if key == "duplicate" and not isinstance(value, bool):
+            raise self.fail((*path, key), "'duplicate' must be true or false")
+        typed = ("params", "delay", "max_delay", "lost", "fairness", "timeout_ms", "within", "duplicate")
+        if key not in typed and not isinstance(value, str):
+            raise self.fail((*path, key), f"'{key}' must be a string")
+
     def table(self, path: KeyPath, body: object, kind: str) -> None:
         if not isinstance(body, dict):
             raise self.fail(path, f"'{'.'.join(map(str, path))}' must be a table")
         for key, value in body.items():
             if key not in TABLES[kind]:
                 raise self.fail((*path, key), f"unknown key '{key[:40]}' (allowed: {', '.join(sorted(TABLES[kind]))})")
-            if key == "params":
-                if not isinstance(value, dict):
-                    raise self.fail((*path, key), "'params' must be a table of numbers")
-            elif key in ("delay", "max_delay", "lost", "fairness", "timeout_ms"):
-                if not isinstance(value, int) or isinstance(value, bool):
-                    raise self.fail((*path, key), f"'{key}' must be an integer")
-            elif key == "within":
-                if not isinstance(value, int) or isinstance(value, bool):
-                    raise self.fail((*path, key), "'within' must be an integer number of steps")
-            elif not isinstance(value, str):
-                raise self.fail((*path, key), f"'{key}' must be a string")
+            self.value(path, key, value)
         required = {"network": ("name",), "instances": ("spec",), "channel": ("id", "from", "to")}
         required |= {"invariant": ("id", "expr"), "liveness": ("id", "assume", "goal")}
         for key in required[kind]:
@@ -228,10 +233,13 @@ class NetworkLoader:
             order = item.get("order", "fifo")
             if order not in ORDERS:
                 raise self.fail((*path, "order"), f"'order' must be one of {', '.join(ORDERS)}, got {order[:40]!r}")
+            duplicate = item.get("duplicate", True)
+            if not duplicate and order != "fifo":
+                raise self.fail((*path, "duplicate"), "'duplicate = false' needs order = \"fifo\"")
             result.append(
                 Channel(
                     item["id"], sender, output, receiver, port, delay, lost, item.get("cite", ""),
-                    item.get("doc", ""), self.where.loc(path), item.get("max_delay"), cast(Order, order),
+                    item.get("doc", ""), self.where.loc(path), item.get("max_delay"), cast(Order, order), duplicate,
                 )
             )  # fmt: skip
         ids = [c.id for c in result]
