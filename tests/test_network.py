@@ -499,13 +499,13 @@ def test_diagram_draws_a_network_and_each_machine_in_it(tmp_path: Path, capsys: 
     assert dot.count("subgraph ") == 2 and dot.count('-> "A.CLAIM"') == 1 and dot.count('-> "B.CLAIM"') == 1
     channels = [line for line in dot.splitlines() if "ltail=" in line]
     assert len(channels) == 2 and all("style=dashed" in line for line in channels)
-    assert 'label="ab: claiming -> other_claims\\n1 step, at most 1 lost in a row"' in channels[0]
+    assert 'label="ab: claiming -> other_claims\\n1 step late, at most 1 lost in a row"' in channels[0]
     assert main(["diagram", pair, "--format", "svg", "--out", str(tmp_path / "net.svg")]) == 0
     assert "<svg" in (tmp_path / "net.svg").read_text(encoding="utf-8")
     assert main(["diagram", pair, "--format", "mermaid"]) == 0
     mermaid = capsys.readouterr().out
     assert "    state A {" in mermaid and "        i1_s0 : KEEP" in mermaid
-    assert "    A --> B: ab claiming to other_claims, 1 step, at most 1 lost in a row" in mermaid
+    assert "    A --> B: ab claiming to other_claims, 1 step late, at most 1 lost in a row" in mermaid
     assert main(["diagram", pair, "--format", "scxml"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.endswith("a network has no SCXML form (its channels are not SCXML's): "

@@ -368,23 +368,30 @@ def cmd_diff(args: argparse.Namespace) -> int:
     _say_equivalence(old, new, args.timeout_ms)
     regressions = [c.prop for c in changes if c.regression]
     weakened = [c.prop for c in meaning if c.regression and c.kind != "assumption" and c.prop not in regressions]
+    narrowed = [
+        f"{c.prop.removeprefix('[[assume]]').strip() or 'the assumptions'} allow fewer environments"
+        for c in meaning
+        if c.kind == "assumption" and c.regression
+    ]
+    return _gate(len(changes), regressions, weakened, narrowed)
+
+
+def _gate(changed: int, regressions: list[str], weakened: list[str], narrowed: list[str]) -> int:
+    """The regression gate's last lines and exit code: properties that no longer hold, properties that guarantee
+    less, and assumptions (each said as what narrowed) that allow fewer environments."""
     if regressions:
-        noun = "regression" if len(regressions) == 1 else "regressions"
-        say(f"\n{len(regressions)} {noun}: {', '.join(regressions)} held before and no longer hold")
-    assumed = [c for c in meaning if c.kind == "assumption" and c.regression]
+        say(f"\n{count(len(regressions), 'regression')}: {', '.join(regressions)} held before and no longer hold")
     lead = "" if regressions else "\n"
     if weakened:
         verb = "guarantees" if len(weakened) == 1 else "guarantee"
         say(f"{lead}{len(weakened)} weakened: {', '.join(weakened)} now {verb} less than before (a regression)")
         lead = ""
-    for c in assumed:
-        named = c.prop.removeprefix("[[assume]]").strip() or "the assumptions"
-        say(
-            f"{lead}assumptions narrowed: {named} allow fewer environments, so every guarantee is weaker (a regression)"
-        )
-    if regressions or weakened or assumed:
+    for what in narrowed:
+        say(f"{lead}assumptions narrowed: {what}, so every guarantee is weaker (a regression)")
+        lead = ""
+    if regressions or weakened or narrowed:
         return EXIT_FINDING
-    say(f"\nno regression: every property that held before still holds ({count(len(changes), 'verdict')} changed)")
+    say(f"\nno regression: every property that held before still holds ({count(changed, 'verdict')} changed)")
     return EXIT_OK
 
 
@@ -409,17 +416,8 @@ def _diff_networks(old: LoadedSpec, new: LoadedSpec, timeout_ms: int) -> int:
     regressions = [c.prop for c in changes if c.regression]
     weakened = [c.prop for c in meaning if c.regression and c.prop not in regressions]
     narrowed = [c.what for c in assumed if c.regression]
-    if regressions:
-        say(f"{count(len(regressions), 'regression')}: {', '.join(regressions)} held before and no longer hold")
-    if weakened:
-        say(f"{len(weakened)} weakened: {', '.join(weakened)} now guarantee less than before (a regression)")
-    if narrowed:
-        say(f"assumptions narrowed: {', '.join(narrowed)} allow fewer or other environments, so every guarantee "
-            "is weaker (a regression)")  # fmt: skip
-    if regressions or weakened or narrowed:
-        return EXIT_FINDING
-    say(f"no regression: every property that held before still holds ({count(len(changes), 'verdict')} changed)")
-    return EXIT_OK
+    said = [f"{', '.join(narrowed)} allow fewer or other environments"] if narrowed else []
+    return _gate(len(changes), regressions, weakened, said)
 
 
 def _say_equivalence(old: LoadedSpec, new: LoadedSpec, timeout_ms: int) -> None:

@@ -24,7 +24,7 @@ from mlca_verify.model import (
     as_binop,
     show,
 )
-from mlca_verify.network import Channel, Network
+from mlca_verify.network import Channel, Network, losses, timing
 from mlca_verify.statechart import Undrawable, head, transition_note
 
 FORMATS = ("dot", "mermaid", "scxml")
@@ -152,13 +152,10 @@ def render(m: Machine, fmt: str) -> str:
 
 
 def channel_label(ch: Channel) -> str:
-    """`ab: claiming -> other_claims`, then on a line of its own its delivery: `1 step`, `0 to 2 steps, any
-    order`, `at most 1 lost in a row`."""
-    steps = f"{ch.delay} step" + ("s" if ch.delay != 1 else "")
-    if ch.latest != ch.delay:
-        steps = f"{ch.delay} to {ch.latest} steps" + (", any order" if ch.order == "any" else "")
-    lost = f", at most {ch.lost} lost in a row" if ch.lost else ""
-    return f"{ch.id}: {ch.output} -> {ch.port}\n{steps}{lost}"
+    """`ab: claiming -> other_claims`, then on a line of its own when it delivers and what it may lose (`1 to 2
+    steps late, in any order, at most 1 lost in a row`)."""
+    lost = f", {losses(ch)}" if ch.lost else ""
+    return f"{ch.id}: {ch.output} -> {ch.port}\n{timing(ch)}{lost}"
 
 
 def network_caption(net: Network, channels: str = "an edge between instances") -> str:

@@ -129,6 +129,20 @@ class Network:
         return next(i for i in self.instances if i.name == name)
 
 
+def timing(ch: Channel) -> str:
+    """When a channel delivers, in words: `1 step late`, `1 to 2 steps late, in order, each read at most once`."""
+    if ch.latest == ch.delay:
+        return f"{ch.delay} step{'s' if ch.delay != 1 else ''} late"
+    order = "in order" if ch.order == "fifo" else "in any order"
+    once = "" if ch.duplicate or ch.order != "fifo" else ", each read at most once"
+    return f"{ch.delay} to {ch.latest} steps late, {order}{once}"
+
+
+def losses(ch: Channel) -> str:
+    """What a channel may lose, in words: `at most 1 lost in a row`, `none lost`."""
+    return f"at most {ch.lost} lost in a row" if ch.lost else "none lost"
+
+
 def instances_read(*exprs: Expr) -> frozenset[str]:
     """The instances whose names (`A.gap`, `A.state`) the expressions read."""
     return frozenset(n.partition(".")[0] for e in exprs for n in names_of(e) if "." in n)
@@ -295,13 +309,11 @@ def _channel(net: Network, ch: Channel, parts: _Parts) -> None:
             f"channel '{ch.id}': output '{ch.sender}.{ch.output}' reads the step's inputs; a channel carries an "
             "output over the sender's context (state, variables, params)",
         )
-    sent = Renamer(ch.sender, sender.states).expr(output.expr)  # what the sender holds, read over its context
+    renamed = Renamer(ch.sender, sender.states)
+    sent = renamed.expr(output.expr)  # what the sender holds, read over its context
     ages = _pipeline(ch, output, sent, parts)  # the message of each age the channel may deliver, by age
     if ch.delay == 0:  # immediate: what the sender holds after this very step
-        ages = {
-            0: substitute(Renamer(ch.sender, sender.states).expr(_inlined(output.expr, sender)), parts.after),
-            **ages,
-        }
+        ages = {0: substitute(renamed.expr(_inlined(output.expr, sender)), parts.after), **ages}
     age: Expr = _int(ch.delay) if ch.latest == ch.delay else _age(ch, parts)
     value = (
         ages[ch.latest]

@@ -198,7 +198,8 @@ def chart_svg(net: Network, cx: Counterexample, title: str) -> str:
                 f'paint-order="stroke">{_text(label)}</text>'
             )
     for m in messages(net, cx):
-        out += _arrows(net_channel(net, m.channel), m, x, height, _label(net, net_channel(net, m.channel), m))
+        ch = net_channel(net, m.channel)
+        out += _arrows(ch, m, x, height, _label(net, ch, m))
     out.append("</svg>")
     return "\n".join(out) + "\n"
 

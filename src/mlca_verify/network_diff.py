@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from mlca_verify.model import show_number
-from mlca_verify.network import Channel, Instance, Network, qualified
+from mlca_verify.network import Channel, Instance, Network, losses, qualified, timing
 
 Relation = Literal["narrowed", "widened", "changed"]
 
@@ -34,13 +34,8 @@ class NetworkChange:
 
 
 def delivery(ch: Channel) -> str:
-    """A channel's semantics in words: `1 to 2 steps late, in order; at most 1 lost in a row`."""
-    late = f"{ch.delay} step{'s' if ch.delay != 1 else ''} late"
-    if ch.latest != ch.delay:
-        late = f"{ch.delay} to {ch.latest} steps late, " + ("in order" if ch.order == "fifo" else "in any order")
-        late += "" if ch.duplicate or ch.order != "fifo" else ", each read at most once"
-    lost = f"at most {ch.lost} lost in a row" if ch.lost else "none lost"
-    return f"{qualified(ch.sender, ch.output)} to {qualified(ch.receiver, ch.port)}, {late}; {lost}"
+    """A channel's ends and semantics in words: `A.x to B.y, 1 to 2 steps late, in order; at most 1 lost in a row`."""
+    return f"{qualified(ch.sender, ch.output)} to {qualified(ch.receiver, ch.port)}, {timing(ch)}; {losses(ch)}"
 
 
 def _runs_within(inner: Channel, outer: Channel) -> bool:
