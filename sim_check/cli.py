@@ -14,14 +14,15 @@ import sys
 import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from mlca_verify import cli_base
 from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError, located
 from mlca_verify.escape import terminal
-from sim_check.controllers import CONTROLLERS, PAPER_MATRIX
+from sim_check.controllers import CONTROLLERS, PAPER_MATRIX, V2V_CONTROLLERS, load_controller, setup_of
 from sim_check.db import Plan, ResultsDB
+from sim_check.radio import traffic_text
 from sim_check.replay import MAX_REPLAY_POINTS
 from sim_check.run_results import MARKS_KM, Job, RunResult
 from sim_check.scenario import LIMITS, MAX_SEED, Scenario, load_scenario
@@ -104,6 +105,10 @@ def _parser() -> argparse.ArgumentParser:
     )
     replay.add_argument("--lemma", help="the lemma whose counterexample to replay (default: every violated one)")
     replay.add_argument("--side", choices=["left", "right"], default="left", help="the lane changed into")
+    replay.add_argument(
+        "--controller",
+        help="drive every AV of a network's scene with this V2V controller (default: each instance's own machine)",
+    )
     replay.add_argument("--json", type=Path, help="also write the outcome as JSON")
     return parser
 
@@ -169,6 +174,8 @@ def _run(args: argparse.Namespace, scenario: Scenario, results: ResultsDB | None
         f"{result.sim_steps} steps, {result.vehicle_steps} vehicle-steps, {result.wall_s:.2f} s wall, "
         f"{result.collisions} collisions, {result.monitor_violations} monitor violations"
     )
+    if setup_of(args.controller).generated and load_controller(args.controller).claims_at:
+        print(f"V2V: {traffic_text(result.v2v, scenario.v2v)}")
     if results and not results.store(result):
         print(f"{args.db}: another process stored this run meanwhile; not stored again", file=sys.stderr)
     if args.json:
@@ -332,9 +339,13 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from sim_check.replay import as_json, describe, load_points, outcome
+    from sim_check.network_replay import load_scenes
+    from sim_check.replay import as_json, describe, load_points, outcome, read_replay_file
 
-    points = load_points(args.file, args.lemma, args.side)  # read (or refused) before SUMO starts
+    if args.controller is not None and args.controller not in V2V_CONTROLLERS:
+        raise UsageError(f"error: --controller must be a V2V controller ({', '.join(V2V_CONTROLLERS)})")
+    scenes = load_scenes(args.file, read_replay_file(args.file), args.controller)  # read before SUMO starts
+    points = [] if scenes and args.lemma is None else load_points(args.file, args.lemma, args.side)
     require_extra("replay")
     from sim_check.replay import replay
 
@@ -344,15 +355,48 @@ def cmd_replay(args: argparse.Namespace) -> int:
             phases = replay(point, Path(work) / str(k))
             print("\n".join(terminal(line) for line in describe(point, phases).splitlines()))
             outcomes.append((point, phases))
+        networks = _replay_scenes(scenes, Path(work) / "scenes")
     unsafe = sum(outcome(phases) == "unsafe" for _, phases in outcomes)
     unexpected = [p.source for p, phases in outcomes if outcome(phases) != p.expect]
-    print(
-        f"{len(outcomes)} point(s) replayed: {unsafe} unsafe (a collision, or braking beyond a declared limit); "
-        + (terminal(f"{len(unexpected)} not as expected: {', '.join(unexpected)}") if unexpected else "all as expected")
-    )
+    if points:
+        print(
+            f"{len(outcomes)} point(s) replayed: {unsafe} unsafe (a collision, or braking beyond a declared limit); "
+            + (
+                terminal(f"{len(unexpected)} not as expected: {', '.join(unexpected)}")
+                if unexpected
+                else "all as expected"
+            )
+        )
     if args.json:
-        write_json(str(args.json), {"schema": "mlca-sim.replay/1", "points": [as_json(*o) for o in outcomes]})
-    return 1 if unexpected else 0
+        doc: dict[str, object] = {"schema": "mlca-sim.replay/1", "points": [as_json(*o) for o in outcomes]}
+        if networks:
+            doc["networks"] = networks
+        write_json(str(args.json), doc)
+    return 1 if unexpected or any(n["expected"] not in (None, n["outcome"]) for n in networks) else 0
+
+
+def _replay_scenes(scenes: list[Any], work: Path) -> list[dict[str, Any]]:
+    """Each network counterexample's scene driven in SUMO, printed; their JSON."""
+    from sim_check.network_replay import as_json, describe, run_scene
+
+    done = []
+    for k, scene in enumerate(scenes):
+        run = run_scene(scene, work / str(k))
+        print("\n".join(terminal(line) for line in describe(scene, run).splitlines()))
+        done.append(as_json(scene, run))
+    if scenes:
+        conflicts = sum(d["outcome"] == "conflict" for d in done)
+        missed = [d["source"] for d in done if d["expected"] not in (None, d["outcome"])]
+        said = (
+            f"{len(missed)} violation(s) not shown in traffic: {', '.join(missed)}"
+            if missed
+            else "each violation driven by its own machines shows in traffic"
+        )
+        print(
+            f"{len(done)} network scene(s) replayed: {conflicts} with a conflict (two AVs into one gap, or a "
+            f"collision); {terminal(said)}"
+        )
+    return done
 
 
 COMMANDS = {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report, "replay": cmd_replay}

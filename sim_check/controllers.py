@@ -34,10 +34,11 @@ class Generated:
 
     machine: str
     language: Language
+    folder: str = ""  # the spec's folder under SPECS
 
     @property
     def spec(self) -> Path:
-        return SPECS / f"{self.machine}.toml"
+        return SPECS / self.folder / f"{self.machine}.toml"
 
 
 @dataclass(frozen=True)
@@ -58,8 +59,15 @@ class Setup:
     generated: Generated | None = None  # what a `fsm` controller runs
 
 
-def _fsm(machine: str, language: Language, label: str, stands_for: str) -> Setup:
-    return Setup(f"{machine}-{language}", "fsm", label, stands_for, generated=Generated(machine, language))
+def _fsm(machine: str, language: Language, label: str, stands_for: str, folder: str = "") -> Setup:
+    return Setup(f"{machine}-{language}", "fsm", label, stands_for, generated=Generated(machine, language, folder))
+
+
+def _v2v(machine: str, language: Language, label: str, protocol: str) -> Setup:
+    """A controller that talks to the other AVs: the generated machine of `spec/v2v/<machine>.toml`, each AV's
+    claims sent through the scenario's radio (sim_check.radio)."""
+    code = "Python" if language == "py" else "C"
+    return _fsm(machine, language, label, f"MLCA-T with {protocol} (spec/v2v/{machine}.toml), generated {code}", "v2v")
 
 
 # Sec. IV-C of the paper names its comparison models; Sec. II describes them (LC2013, LC2014, LC2017, MOBIL,
@@ -84,6 +92,10 @@ SETUPS = {
             "MLCA-T",
             "MLCA-T: the whole decision function of spec/mlca_t.toml (waiting timer, RSS gap rule), generated C",
         ),
+        _v2v("mlca_t_v2v", "py", "MLCA-T V2V (Python)", "the first V2V protocol: move at once, claiming the gap"),
+        _v2v("mlca_t_v2v", "c", "MLCA-T V2V", "the first V2V protocol: move at once, claiming the gap"),
+        _v2v("mlca_t_claim", "py", "MLCA-T claim (Python)", "the repaired V2V protocol: claim the gap, then move"),
+        _v2v("mlca_t_claim", "c", "MLCA-T claim", "the repaired V2V protocol: claim the gap, then move"),
         Setup(
             "lc2013",
             "sumo",
@@ -133,6 +145,7 @@ SETUPS = {
     )
 }
 CONTROLLERS = tuple(SETUPS)
+V2V_CONTROLLERS = tuple(n for n, s in SETUPS.items() if s.generated and s.generated.folder == "v2v")
 # The paper's comparison (Sec. IV): every model once, MLCA as generated C, and the repair.
 PAPER_MATRIX = ("lc2013", "sl2015", "continuous", "idm-lc", "mobil", "without", "mlca-c", "mlca_r-c", "mlca_t-c")
 
@@ -170,6 +183,7 @@ class Controller:
     flags: tuple[str, ...]
     command_at: int | None
     machine: PythonMachine | CMachine
+    claims_at: tuple[int, ...] = ()  # a machine talking to the other AVs: its claims_left and claims_right outputs
 
     def __post_init__(self) -> None:
         self.context: Callable[[], Any] = self.machine.context
@@ -186,6 +200,8 @@ class Controller:
 # each side), or on the need and its urgency with the raw gap and speed signals, the machine deciding the rest.
 SENSED_INPUTS = ("N", "W", "L", "R")
 SIGNAL_INPUTS = ("N", "U")
+V2V_INPUTS = ("N", "heard_left", "heard_right", "U")  # ... and what the other AVs' claims say (sim_check.radio)
+V2V_OUTPUTS = ("claims_left", "claims_right")
 
 
 @functools.cache
@@ -197,13 +213,15 @@ def load_controller(name: str, generated: Path = GENERATED) -> Controller:
     ir = machine_ir(load_spec(code.spec, compare=False), generated)
     signals, inputs = tuple(s.name for s in ir.signals), tuple(i.name for i in ir.inputs)
     outputs = tuple(o.name for o in ir.outputs)
+    talks = inputs == V2V_INPUTS and set(V2V_OUTPUTS) <= set(outputs)
     drivable = (inputs == SENSED_INPUTS and not signals) or (
-        inputs == SIGNAL_INPUTS and signals == SENSED and "command" in outputs
+        inputs in (SIGNAL_INPUTS, V2V_INPUTS) and signals == SENSED and "command" in outputs
     )
-    if not drivable:
+    if not drivable or (inputs == V2V_INPUTS and not talks):
         raise UsageError(
             f"error: controller '{name}': the closed loop drives a machine whose inputs are {', '.join(SENSED_INPUTS)} "
-            f"(no signals), or one whose inputs are {', '.join(SIGNAL_INPUTS)}, whose signals are "
+            f"(no signals), or one whose inputs are {', '.join(SIGNAL_INPUTS)} (or, talking to the other AVs, "
+            f"{', '.join(V2V_INPUTS)} with the outputs {' and '.join(V2V_OUTPUTS)}), whose signals are "
             f"{', '.join(SENSED)}, in that order, and which has an output 'command'"
         )
     layout, flags = Layout(generated, ir.module), flag_definitions(ir)
@@ -214,5 +232,6 @@ def load_controller(name: str, generated: Path = GENERATED) -> Controller:
             machine = build_c(layout, ir, Path(build), f"_{ir.module}_sim")
     transitions = tuple(tid for _, tid, _ in ir.transitions)
     command_at = outputs.index("command") if "command" in outputs else None
+    claims_at = tuple(outputs.index(o) for o in V2V_OUTPUTS) if talks else ()
     initial = ir.states.index(ir.initial)
-    return Controller(name, ir.states, initial, inputs, signals, transitions, flags, command_at, machine)
+    return Controller(name, ir.states, initial, inputs, signals, transitions, flags, command_at, machine, claims_at)

@@ -27,6 +27,7 @@ from typing import Any
 
 from mlca_verify.errors import UsageError
 from sim_check.leases import Plan, drop_lease, lease, probe, release
+from sim_check.radio import V2V_COUNTS
 from sim_check.run_results import MARKS_KM, SAFETY, SHADOW, STATES, Job, RunResult, Status
 from sim_check.schema import (
     AV_METRICS,
@@ -92,6 +93,7 @@ def _insert(conn: sqlite3.Connection, r: RunResult) -> bool:
         "trajectory_sha256": r.trajectory_sha256,
         "bg_mean_speed_ms": r.bg_mean_speed_ms,
         "density_veh_km_lane": r.density_veh_km_lane,
+        **{f"v2v_{name}": getattr(r.v2v, name) for name in V2V_COUNTS},
     }
     if not conn.execute(RUNS.insert("INSERT OR IGNORE"), _values(RUNS, run)).rowcount:
         return False

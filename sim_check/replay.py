@@ -107,21 +107,27 @@ class Phase:
 # ---- reading a point -------------------------------------------------------------------------------------------
 
 
-def load_points(path: Path, lemma: str | None, side: str) -> list[Point]:
-    """The points in FILE: a `mlca-verify check --json` document (each violated lemma's counterexample, or the
-    one of `lemma`, read through the side's signals) or a TOML file with a `[point]` table (and `[params]`). A
-    `.json` file is read as JSON; a file of another name as JSON when it starts with `{`, else as TOML."""
-    if lemma is not None:
-        _lemma_name("mlca-sim replay", "--lemma", lemma)
+def read_replay_file(path: Path) -> str:
+    """The text of a replay file: a report or a point file, within MAX_REPLAY_BYTES."""
     if path.is_dir():
         raise UsageError.at(path, "is a directory, not a report or point file")
     data = read_regular(path, MAX_REPLAY_BYTES, "replay file")
     try:
-        text = data.decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError:
         raise UsageError.at(path, "not UTF-8") from None
+
+
+def load_points(path: Path, lemma: str | None, side: str, *, required: bool = True) -> list[Point]:
+    """The points in FILE: a `mlca-verify check --json` document (each violated lemma's counterexample, or the
+    one of `lemma`, read through the side's signals) or a TOML file with a `[point]` table (and `[params]`). A
+    `.json` file is read as JSON; a file of another name as JSON when it starts with `{`, else as TOML. A report
+    with no such counterexample is refused where `required`, else gives none."""
+    if lemma is not None:
+        _lemma_name("mlca-sim replay", "--lemma", lemma)
+    text = read_replay_file(path)
     if path.suffix.lower() == ".json" or text.lstrip().startswith("{"):
-        return _from_check_json(path, text, lemma, side)
+        return _from_check_json(path, text, lemma, side, required)
     if lemma is not None:
         raise UsageError.at(path, "--lemma needs a `mlca-verify check --json` file")
     return [_from_toml(path, text)]
@@ -145,7 +151,7 @@ def _from_toml(path: Path, text: str) -> Point:
     return replace(_point(path, values, params, str(path)), expect=expect)
 
 
-def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> list[Point]:
+def _from_check_json(path: Path, text: str, lemma: str | None, side: str, required: bool) -> list[Point]:
     try:
         doc = json.loads(text)
     except RecursionError:
@@ -167,7 +173,7 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> lis
         if _wanted(result, lemma) and (lemma is not None or _about(_first_step(result), side)):
             point = _counterexample(path, spec, result, side)
             points.setdefault(_identity(point), point)
-    if not points:
+    if not points and required:
         what = f"lemma {lemma}" if lemma else f"a violated lemma about the {side} side"
         raise UsageError.at(path, f"no counterexample of {what} in this file")
     if len(points) > MAX_REPLAY_POINTS:
@@ -317,11 +323,16 @@ def _network(point: Point, work: Path) -> tuple[Path, float]:
     """A straight two-lane road long enough for the whole worst case; returns the net and the follower's start."""
     reach = fastest(point) * horizon(point)
     length = 100.0 + point.gap_follow + point.gap_lead + 3 * LENGTH_M + reach + 100.0
+    return straight_road(work, 2, length), 100.0
+
+
+def straight_road(work: Path, lanes: int, length: float) -> Path:
+    """A straight road of `lanes` lanes (edge `road`), built by netconvert into `work`."""
     (work / "road.nod.xml").write_text(
         f'<nodes>\n  <node id="a" x="0" y="0"/>\n  <node id="b" x="{length:.1f}" y="0"/>\n</nodes>\n'
     )
     (work / "road.edg.xml").write_text(
-        '<edges>\n  <edge id="road" from="a" to="b" numLanes="2" speed="100"/>\n</edges>\n'
+        f'<edges>\n  <edge id="road" from="a" to="b" numLanes="{lanes}" speed="100"/>\n</edges>\n'
     )
     net = work / "road.net.xml"
     done = subprocess.run(
@@ -342,7 +353,7 @@ def _network(point: Point, work: Path) -> tuple[Path, float]:
     )
     if done.returncode != 0:
         raise ToolError(f"error: netconvert failed: {done.stderr.strip()}")
-    return net, 100.0
+    return net
 
 
 def _routes(point: Point, work: Path, start: float) -> Path:

@@ -6,10 +6,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 from typing import Any, Literal
 
+from sim_check.radio import Traffic
+
 MARKS_KM = (5, 10, 15, 20)
 Job = tuple[str, int, int]  # a run's key: controller, AVs, seed
 Status = Literal["done", "failed"]  # a run that finished, or one that failed (its reason says why)
 STATES = ("IDLE", "WAITING", "MOVING_LEFT", "MOVING_RIGHT")
+CLAIM_STATES = ("CLAIM_LEFT", "CLAIM_RIGHT")  # the repaired V2V protocol's (spec/v2v/mlca_t_claim.toml)
 SIDES = {"MOVING_LEFT": +1, "MOVING_RIGHT": -1}  # the states that move the AV, and the side they move it to
 
 
@@ -113,7 +116,7 @@ class AvMetrics:
             "monitor_violations": self.monitor_violations,
             "mingap_contacts": self.mingap_contacts,
             **{k: (getattr(self, k) if self.sensed else None) for k in MECHANISM},
-            **{f"{state.lower()}_s": self.state_s.get(state) for state in STATES},
+            **{f"{state.lower()}_s": self.state_s.get(state) for state in (*STATES, *CLAIM_STATES)},
             **self.shadow(),
             **{k: getattr(self, k) for k in SAFETY},
         }
@@ -145,6 +148,7 @@ class RunResult:
     trajectory_sha256: str = ""
     metrics: list[AvMetrics] = field(default_factory=list)
     violations: list[Violation] = field(default_factory=list)
+    v2v: Traffic = field(default_factory=Traffic)  # what the radio carried (controllers that talk to each other)
 
     @property
     def monitor_violations(self) -> int:

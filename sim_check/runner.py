@@ -37,6 +37,7 @@ from sim_check import mobil, ssm
 from sim_check.accounting import EMERGENCY_DECEL, Driving, Ledger
 from sim_check.controllers import Setup, load_controller, setup_of
 from sim_check.need import URGENT_M, Need, middle_goal, sumo_wish
+from sim_check.radio import Claim, Moves, Radio, heard
 from sim_check.reads import Leader, Reads
 from sim_check.run_results import SIDES, AvMetrics, RunResult
 from sim_check.scenario import Scenario, build, sumo_command
@@ -61,7 +62,7 @@ class ClosedLoop:
     accounting; the rare events (a departure, an arrival, a collision, a min-gap contact, a lane change, a
     command) have their own methods."""
 
-    def __init__(self, sumo: Any, setup: Setup, scenario: Scenario, av_ids: tuple[str, ...]) -> None:
+    def __init__(self, sumo: Any, setup: Setup, scenario: Scenario, av_ids: tuple[str, ...], seed: int = 0) -> None:
         self.sumo = sumo
         self.read = Reads(sumo)
         self.network = Network(sumo)
@@ -78,6 +79,10 @@ class ClosedLoop:
         deciders = {"without": self.decide_sensed, "mobil": self.decide_mobil}
         on_signals = ctrl is not None and bool(ctrl.signals)
         self.decide = self.decide_data if on_signals else self.decide_sensed if ctrl else deciders.get(setup.kind)
+        if ctrl is not None and ctrl.claims_at:
+            self.decide = self.decide_v2v
+        self.radio = Radio.seeded(scenario.v2v, seed)
+        self.moves = Moves(scenario.v2v.radius_m)
         self.scenario = scenario
         self.target = scenario.target_lane
         self.sumo_need = scenario.traffic.need == "sumo"
@@ -108,6 +113,8 @@ class ClosedLoop:
             claims: list[LaneClaim] = []
             for av in self.driving:
                 speeds += self.drive(av, t, claims)
+            if self.moves.now or self.moves.pairs:
+                self.moves.end_step(self.radio.traffic)
         self.steps += 1
         if self.steps % SAMPLE_STEPS == 0:
             self.ledger.sample(self.sumo.edge.getIDList, speeds, len(self.driving))
@@ -144,6 +151,7 @@ class ClosedLoop:
                 av.m.arrive_s = t
                 self.remaining -= 1
                 self.driving.remove(av)
+                self.radio.forget(vid)
                 self.ledger.arrived(av)
 
     def drive(self, av: Driving, t: float, claims: list[LaneClaim]) -> float:
@@ -244,6 +252,42 @@ class ClosedLoop:
         side, safe = self.data_machine(av, t, need, sensed)
         self.move(av, t, where, side, claims)
         self.ledger.track(av, need, safe, side)
+
+    def decide_v2v(
+        self,
+        av: Driving,
+        t: float,
+        claims: list[LaneClaim],
+        where: tuple[str, int, float],
+        *,
+        leader: Leader,
+        speed: float,
+    ) -> None:
+        """A machine that talks to the other AVs decides on N, U, the raw signals and the claims it reads from the
+        radio this step (sim_check.radio), with its generated code alone; what it claims goes out on the radio.
+        The harness decides nothing about claims: which lane a claim names is the message's content."""
+        assert self.ctrl is not None
+        edge, lane, pos = where
+        need = self.need_of(av, where, leader)
+        self.ledger.wish(av, t, need)
+        v2v = self.scenario.v2v
+        left, right = heard(self.radio.read(self.steps, av.id), edge, lane, pos, v2v.radius_m)
+        sensed = signals(self.read, av.id, lane, lanes=self.network.lanes[edge], speed=speed, side=need.side)
+        values = (need.side != 0, left, right, need.urgent, *sensed)
+        seen = {"N": values[0], "heard_left": left, "heard_right": right, "U": need.urgent, "signals": sensed}
+        packed, outputs = self.machine_step(av, t, values, seen)
+        if v2v.on:
+            receivers = [d.id for d in self.driving]
+            for side, at in zip((1, -1), self.ctrl.claims_at, strict=True):
+                if outputs[at]:
+                    self.radio.send(self.steps, Claim(av.id, edge, lane + side, pos), receivers)
+        command_at = self.ctrl.command_at
+        assert command_at is not None
+        side = outputs[command_at]
+        if side:
+            self.moves.moving(Claim(av.id, edge, lane + side, pos))
+        self.move(av, t, where, side, None)
+        self.ledger.track(av, need, bool(packed & self.safe_bits), side)
 
     def data_machine(self, av: Driving, t: float, need: Need, sensed: tuple[float, ...]) -> tuple[int, bool]:
         """One step of the machine with data and its runtime monitor: the side its command moves to (+1, -1 or 0),
@@ -365,7 +409,7 @@ def run_once(
     conflicts = work / f"ssm_{seed}_{scenario.traffic.avs}.xml"
     options = (*setup.options, *ssm.options(built.av_ids, conflicts))
     libsumo.start(sumo_args(scenario, built.net, built.routes, seed, options))
-    loop = ClosedLoop(libsumo, setup, scenario, built.av_ids)
+    loop = ClosedLoop(libsumo, setup, scenario, built.av_ids, seed)
     result = RunResult(controller, scenario.traffic.avs, seed)
     read, steps, vehicle_steps = loop.read, 0, 0
     try:
@@ -396,6 +440,7 @@ def run_once(
             found.min_pet_s,
         )
     result.violations = ledger.violations
+    result.v2v = loop.radio.traffic
     result.trajectory_sha256 = ledger.trajectory_sha256()
     result.wall_s = time.perf_counter() - start
     return result

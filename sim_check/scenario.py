@@ -13,7 +13,7 @@ import random
 import re
 import subprocess
 import tomllib
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +21,7 @@ from mlca_verify.errors import Loc, SpecError, ToolError
 from mlca_verify.files import read_regular
 from mlca_verify.spec.locate import Locator
 from sim_check.need import NEED_SOURCES
+from sim_check.radio import V2V
 
 PAPER = Path(__file__).with_name("paper.toml")
 MAX_SCENARIO_BYTES = 1_000_000
@@ -66,13 +67,21 @@ LIMITS: dict[str, tuple[float, float]] = {  # beyond these a value is a mistake,
     "depart_window_s": (0, 3600),
     "av_depart_s": (0, 3600),
     "step_s": (0.001, 10),
+    "loss": (0, 1),
+    "lost_in_row": (0, 100),
+    "delay": (1, 100),
+    "max_delay": (1, 100),
+    "duplicate": (0, 1),
+    "radius_m": (0.1, 1000),
 }
+MAY_BE_ZERO = {"loss", "lost_in_row", "duplicate"}  # a channel that loses or repeats nothing
 
 
 @dataclass(frozen=True)
 class Scenario:
     road: Road = Road()
     traffic: Traffic = Traffic()
+    v2v: V2V = field(default_factory=V2V)  # the radio of the controllers that talk to the other AVs (sim_check.radio)
 
     def with_avs(self, avs: int) -> Scenario:
         return replace(self, traffic=replace(self.traffic, avs=avs))
@@ -97,15 +106,20 @@ def load_scenario(path: Path | None = None) -> Scenario:
     text = _read(path)
     doc = _parse(path, text)
     where = Locator(str(path), text)
-    sections: dict[str, Any] = {"road": Road(), "traffic": Traffic()}
+    sections: dict[str, Any] = {"road": Road(), "traffic": Traffic(), "v2v": V2V()}
     for key, table in doc.items():
         if key not in sections:
-            raise SpecError(where.loc((key,)), f"unknown section [{key}] (known: road, traffic)")
+            raise SpecError(where.loc((key,)), f"unknown section [{key}] (known: {', '.join(sections)})")
         if not isinstance(table, dict):
             raise SpecError(where.loc((key,)), f"'{key}' must be a table ([{key}]), got {_show(table)}")
         sections[key] = _section(sections[key], table, where, key)
     scenario = Scenario(**sections)
     _check_lane(scenario, where)
+    if scenario.v2v.max_delay < scenario.v2v.delay:
+        raise SpecError(
+            where.loc(("v2v", "max_delay")),
+            f"'max_delay' in [v2v] is {scenario.v2v.max_delay}, less than 'delay' ({scenario.v2v.delay})",
+        )
     return _with_osm(scenario, path, where)
 
 
@@ -147,6 +161,10 @@ def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> 
             values[key] = _lane_name(given, at, what)
         elif known[key] == "str":
             values[key] = _text(key, given, at, what)
+        elif known[key] == "bool":
+            if not isinstance(given, bool):
+                raise SpecError(at, f"{what} must be true or false, got {_show(given)}")
+            values[key] = given
         else:
             values[key] = _number(
                 given,
@@ -155,22 +173,30 @@ def _section(default: Any, table: dict[str, Any], where: Locator, name: str) -> 
                 what,
                 continuous=known[key] == "float",
                 as_float=isinstance(getattr(default, key), float),
+                positive=key not in MAY_BE_ZERO,
             )
     return replace(default, **values)
 
 
 def _number(
-    given: object, limits: tuple[float, float], at: Loc, what: str, *, continuous: bool, as_float: bool
+    given: object,
+    limits: tuple[float, float],
+    at: Loc,
+    what: str,
+    *,
+    continuous: bool,
+    as_float: bool,
+    positive: bool = True,
 ) -> int | float:
-    """A count (int) or a continuous quantity (int or float), finite and within `limits`; a float where the
-    default is one (so that the files written for a scenario stay what they were)."""
+    """A count (int) or a continuous quantity (int or float), finite, within `limits` and (where `positive`) more
+    than 0; a float where the default is one (so that the files written for a scenario stay what they were)."""
     if isinstance(given, bool) or not isinstance(given, int | float) or (not continuous and isinstance(given, float)):
         raise SpecError(at, f"{what} must be {'a number' if continuous else 'a whole number'}, got {_show(given)}")
     low, high = limits
     if not math.isfinite(given):
         raise SpecError(at, f"{what} must be a finite number, got {_show(given)}")
-    if given <= 0:
-        raise SpecError(at, f"{what} must be positive, got {_show(given)}")
+    if given <= 0 and (positive or given < 0):
+        raise SpecError(at, f"{what} must be {'positive' if positive else 'at least 0'}, got {_show(given)}")
     if not low <= given <= high:
         raise SpecError(
             at, f"{what} must be {f'at least {low:g}' if given < low else f'at most {high:g}'}, got {_show(given)}"

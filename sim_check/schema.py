@@ -16,10 +16,11 @@ from pathlib import Path
 from typing import Literal
 
 from mlca_verify.errors import UsageError
-from sim_check.run_results import MARKS_KM, MECHANISM, SAFETY, SHADOW, STATES
+from sim_check.radio import V2V_COUNTS
+from sim_check.run_results import CLAIM_STATES, MARKS_KM, MECHANISM, SAFETY, SHADOW, STATES
 
 APPLICATION_ID = 0x4D4C4353  # "MLCS": this file is a results database of mlca-sim
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 SqlType = Literal["TEXT", "INTEGER", "REAL"]
 
@@ -79,6 +80,7 @@ RUNS = Table(
         *_cols("TEXT", "trajectory_sha256"),
         *_cols("REAL", "bg_mean_speed_ms"),
         *_cols("REAL", "density_veh_km_lane", since=3),
+        *_cols("INTEGER", *(f"v2v_{name}" for name in V2V_COUNTS), since=4),
     ),
     RUN_KEY,
 )
@@ -92,6 +94,7 @@ AV_METRICS = Table(
         *_cols("INTEGER", "arrived", "monitor_violations", "mingap_contacts"),
         *_cols("REAL", *MECHANISM, *(f"{state.lower()}_s" for state in STATES)),
         *_cols("REAL", *SHADOW, *SAFETY, since=3),
+        *_cols("REAL", *(f"{state.lower()}_s" for state in CLAIM_STATES), since=4),
     ),
     (*RUN_KEY, "av"),
 )

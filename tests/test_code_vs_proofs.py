@@ -10,6 +10,7 @@ engine carries over to binary32 must hold for the generated Python's binary32 to
 from __future__ import annotations
 
 import itertools
+import os
 import random
 import re
 from pathlib import Path
@@ -28,7 +29,9 @@ from mlca_verify.model import Machine
 from mlca_verify.spec import load_spec
 from tests.test_data_vs_bruteforce import specs
 
-MACHINES = 500  # random machines, in two classes
+# random machines, in two classes: 200 in the suite; more on demand (CODE_VS_PROOFS_MACHINES=5000 .venv/bin/pytest
+# tests/test_code_vs_proofs.py; an int machine takes about 0.6 s here)
+MACHINES = int(os.environ.get("CODE_VS_PROOFS_MACHINES", "200"))
 RUNS, STEPS = 4, 25
 LIMITS = Limits(depth=20)
 SETTINGS = settings(

@@ -344,12 +344,32 @@ def test_a_mistake_in_a_network_is_one_line_at_its_place(
 def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main(["gen", "--out", str(tmp_path / "gen"), str(NETWORKS / "claim_pair.toml")]) == 2
+    assert main(["tests", "--out", str(tmp_path / "tests"), str(NETWORKS / "claim_pair.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith(
-        "a network spec: `check`, `diagram` and `diff` take it; the other commands take a machine spec"
+        "a network spec: `check`, `gen`, `diagram` and `diff` take it; the other commands take a machine spec"
     ), err
-    assert not (tmp_path / "gen").exists()
+    assert not (tmp_path / "tests").exists()
+
+
+def test_gen_of_a_network_generates_each_instances_machine_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Three instances of one machine (each with a context of its own, and its params as the instance sets them)
+    share its code: `gen` of the network writes it once, as `gen` of the machine does."""
+    network, machine = ROOT / "spec" / "v2v" / "gap_repaired.toml", ROOT / "spec" / "v2v" / "mlca_t_claim.toml"
+    assert main(["gen", "--out", str(tmp_path / "net"), str(network)]) == 0
+    assert main(["gen", "--out", str(tmp_path / "machine"), str(machine)]) == 0
+    said = capsys.readouterr().out
+    assert said.count("wrote") == 6 and said.count("mlca_t_claim_fsm.c") == 2, said
+    written = sorted(p.relative_to(tmp_path / "net") for p in (tmp_path / "net").rglob("*") if p.is_file())
+    assert [p.as_posix() for p in written] == [
+        "c/mlca_t_claim_fsm.c",
+        "c/mlca_t_claim_fsm.h",
+        "python/mlca_t_claim_fsm.py",
+    ]
+    for rel in written:  # byte for byte the machine's own code
+        assert (tmp_path / "net" / rel).read_bytes() == (tmp_path / "machine" / rel).read_bytes()
 
 
 GUIDE_ROWS = {

@@ -225,8 +225,8 @@ def _text(path: Path) -> None:
     ("make", "message"),
     [
         (_foreign, "not a results database of mlca-sim (its tables: notes)"),
-        (_older, "written by an older mlca-sim (results schema 1, this one writes 3); use a new database file"),
-        (_newer, "written by a newer mlca-sim (results schema 4, this one writes 3)"),
+        (_older, "written by an older mlca-sim (results schema 1, this one writes 4); use a new database file"),
+        (_newer, "written by a newer mlca-sim (results schema 5, this one writes 4)"),
         (_text, "cannot write to the results database: file is not a database"),
     ],
 )

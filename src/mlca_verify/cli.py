@@ -40,7 +40,7 @@ from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
 from mlca_verify.network_report import check_network, network_assumptions, network_json
-from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.spec import LoadedSpec, load_spec, names_a_network
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec_diff import transition_changes, verdict_changes
 from mlca_verify.testgen import DEPTH
@@ -117,7 +117,9 @@ def _parser() -> argparse.ArgumentParser:
     _allow_outside(diff)
 
     gen = sub.add_parser("gen", help="generate Python and C99 code from specs (or check generated/ for drift)")
-    gen.add_argument("specs", nargs="*", metavar="SPEC", help="spec files (default: spec/*.toml)")
+    gen.add_argument(
+        "specs", nargs="*", metavar="SPEC", help="spec files (default: spec/*.toml and the networks in spec/*/)"
+    )
     gen.add_argument("--out", default="generated", metavar="DIR", help="output folder (default: generated)")
     gen.add_argument(
         "--check", action="store_true", help="write nothing; exit 1 when DIR differs from what is generated"
@@ -436,6 +438,28 @@ def _default_specs() -> list[str]:
     return found
 
 
+def _default_gen_specs() -> list[str]:
+    """What `gen` generates with no SPEC: the machines of spec/*.toml and the networks in spec/'s folders (their
+    instances' machines)."""
+    return _default_specs() + sorted(str(p) for p in Path("spec").glob("*/*.toml") if names_a_network(p))
+
+
+def _machines_to_generate(paths: list[str]) -> list[LoadedSpec]:
+    """The machine specs `gen` generates for `paths`: each machine spec, and for a network spec each of its
+    instances' machine specs, once (instances share their machine's code, each with a context of its own)."""
+    found: dict[Path, LoadedSpec] = {}
+    for path in paths:
+        loaded = load_spec(path, compare=False, network=True)
+        if loaded.network is None:
+            found.setdefault(Path(path).resolve(), loaded)
+            continue
+        for inst in loaded.network.instances:
+            where = Path(path).parent / inst.spec
+            if where.resolve() not in found:
+                found[where.resolve()] = load_spec(where, compare=False)
+    return list(found.values())
+
+
 def writable_folder(folder: Path) -> None:
     """Refuse, before any long work, an output folder that cannot be created or written."""
     try:
@@ -451,11 +475,11 @@ def cmd_gen(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     files: dict[str, str] = {}
-    for path in args.specs or _default_specs():
-        new = generate(load_spec(path, compare=False), out)
+    for spec in _machines_to_generate(args.specs or _default_gen_specs()):
+        new = generate(spec, out)
         if clash := sorted(set(new) & set(files)):
             raise UsageError.at(
-                path,
+                spec.path,
                 f"its code would replace {out / clash[0]}, generated from another spec "
                 "given here: two machines of one name need separate --out folders",
             )

@@ -23,6 +23,7 @@ from types import ModuleType
 from typing import Any
 
 import z3
+import z3.z3 as z3_api
 
 from mlca_verify.codegen.acsl import AcslLowering
 from mlca_verify.codegen.certified import Proved, as_wp_sees, assumed_text, certify, needs_arithmetic, ranges
@@ -279,35 +280,87 @@ class Semantics:
         self.link, self.terms = self.system.step(self.pre, self.inputs, self.post)
         self.solver = z3.Solver()
         self.solver.add(self.link)
+        self.after = self._after_terms()
+
+    def _after_terms(self) -> list[z3.ExprRef]:
+        """The mode, the variables and the outputs after the step as terms over the state before and the inputs:
+        the step relation is a function, each post-state constant equal to its next term."""
+        t, post = self.terms, self.post
+        next_vars = [t.next_variables[v.name] for v in self.m.variables]
+        post_is = [(post.mode, t.next_mode), (post.first, z3.BoolVal(False))]
+        post_is += [(post.variables[v.name], x) for v, x in zip(self.m.variables, next_vars, strict=True)]
+        outputs = [z3.substitute(o, *post_is) for o in self.system.outputs_at(t.post).values()]
+        return [t.next_mode, *next_vars, *outputs]
 
     def step(self, row: Row) -> tuple[int, list[bool | int | float], list[bool | int | float]]:
-        """The mode, the variables and the outputs after the step from `row`."""
-        m, s = self.m, self.system
+        """The mode, the variables and the outputs after the step from `row`: the terms of the step evaluated
+        on its values by z3's simplifier, or, where a term does not simplify to a value (a division by zero,
+        which z3 leaves uninterpreted), by a model of the step relation."""
+        fixed = self._fixed(row)
+        values = [z3.simplify(term) for term in _substituted(self.after, fixed)]
+        if not all(_is_value(v) for v in values):
+            values = self._solved(row, fixed)
+        n = len(self.m.variables)
+        mode = values[0]
+        assert isinstance(mode, z3.IntNumRef)
+        return mode.as_long(), [python_value(v) for v in values[1 : 1 + n]], [python_value(v) for v in values[1 + n :]]
+
+    def _fixed(self, row: Row) -> list[tuple[z3.ExprRef, z3.ExprRef]]:
+        """Each constant of the state before the step and of the inputs, paired with its value in `row`."""
+        m = self.m
         k = 0
-        fixed = [self.pre.mode == int(row[k])]
+        fixed: list[tuple[z3.ExprRef, z3.ExprRef]] = [(self.pre.mode, z3.IntVal(int(row[k])))]
         k += 1
         for v in m.variables:
-            fixed.append(self.pre.variables[v.name] == _z3_value(row[k], v.type, None))
+            fixed.append((self.pre.variables[v.name], _z3_value(row[k], v.type, None)))
             k += 1
         for reg in (r for n, r in self.pre.registers.items() if n in self.stored):
-            fixed.append(reg == (z3.BoolVal(bool(row[k])) if z3.is_bool(reg) else row[k]))
+            fixed.append((reg, _register_value(reg, row[k])))
             k += 1
         if self.stored:  # else the code keeps no first-step flag: no kept register reads it
-            fixed.append(self.pre.first == bool(row[k]))
+            fixed.append((self.pre.first, z3.BoolVal(bool(row[k]))))
             k += 1
         for i in m.inputs:
-            fixed.append(self.inputs.bools[i.name] == bool(row[k]))
+            fixed.append((self.inputs.bools[i.name], z3.BoolVal(bool(row[k]))))
             k += 1
         for sig in m.signals:
-            fixed.append(self.inputs.signals[sig.name] == _z3_value(row[k], sig.type, sig.range))
+            fixed.append((self.inputs.signals[sig.name], _z3_value(row[k], sig.type, sig.range)))
             k += 1
-        if self.solver.check(*fixed) != z3.sat:
+        return fixed
+
+    def _solved(self, row: Row, fixed: list[tuple[z3.ExprRef, z3.ExprRef]]) -> list[z3.ExprRef]:
+        if self.solver.check(*(const == value for const, value in fixed)) != z3.sat:
             raise AssertionError(f"the spec has no step from {row}")
         model = self.solver.model()
-        mode = model.eval(self.post.mode, model_completion=True).as_long()
-        variables = [python_value(model.eval(self.post.variables[v.name], model_completion=True)) for v in m.variables]
-        outputs = [python_value(model.eval(t, model_completion=True)) for t in s.outputs_at(self.terms.post).values()]
-        return mode, variables, outputs
+        return [model.eval(z3.substitute(term, *fixed), model_completion=True) for term in self.after]
+
+
+def _substituted(terms: list[z3.ExprRef], pairs: list[tuple[z3.ExprRef, z3.ExprRef]]) -> list[z3.ExprRef]:
+    """`terms` with each constant of `pairs` replaced by its value: z3.substitute without its checks of every
+    pair's sorts, which cost more than the substitution (the pairs are built of matching sorts)."""
+    n = len(pairs)
+    old, new = (z3.Ast * n)(), (z3.Ast * n)()
+    for k, (const, value) in enumerate(pairs):
+        old[k], new[k] = const.as_ast(), value.as_ast()
+    ctx = terms[0].ctx if terms else z3.main_ctx()
+    return [z3_api._to_expr_ref(z3.Z3_substitute(ctx.ref(), t.as_ast(), n, old, new), ctx) for t in terms]
+
+
+def _is_value(term: z3.ExprRef) -> bool:
+    return bool(
+        z3.is_true(term)
+        or z3.is_false(term)
+        or z3.is_int_value(term)
+        or z3.is_rational_value(term)
+        or z3.is_algebraic_value(term)
+    )
+
+
+def _register_value(reg: z3.ExprRef, value: object) -> z3.ExprRef:
+    """A kept register's value as z3 reads it, as `reg == value` coerces it."""
+    if z3.is_bool(reg):
+        return z3.BoolVal(bool(value))
+    return z3.IntVal(value) if z3.is_int(reg) else z3.RealVal(value)
 
 
 def _z3_value(value: object, kind: Type, bounds: tuple[Fraction, Fraction] | None) -> z3.ExprRef:

@@ -8,7 +8,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from mlca_verify.errors import Loc, SpecError
+from mlca_verify.errors import Loc, SpecError, UsageError
 from mlca_verify.files import read_regular
 from mlca_verify.model import Machine
 from mlca_verify.network import Network
@@ -17,10 +17,10 @@ from mlca_verify.spec.meaning import LoadOther, MeaningChecker
 from mlca_verify.spec.network import LoadInstance, NetworkLoader, is_network
 from mlca_verify.spec.shape import ShapeChecker
 
-__all__ = ["LoadedSpec", "load_spec", "load_text"]
+__all__ = ["LoadedSpec", "load_spec", "load_text", "names_a_network"]
 
 MAX_SPEC_BYTES = 2_000_000
-NOT_A_MACHINE = "a network spec: `check`, `diagram` and `diff` take it; the other commands take a machine spec"
+NOT_A_MACHINE = "a network spec: `check`, `gen`, `diagram` and `diff` take it; the other commands take a machine spec"
 _TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
 
 
@@ -75,6 +75,14 @@ def _read(path: Path) -> tuple[str, str]:
         line = data[: err.start].count(b"\n") + 1
         col = err.start - (data.rfind(b"\n", 0, err.start) + 1) + 1
         raise SpecError(Loc(str(path), line, col), f"spec is not UTF-8 text (byte 0x{data[err.start]:02x})") from None
+
+
+def names_a_network(path: Path) -> bool:
+    """Whether `path` is a network spec (False for a file that is not a spec this can read)."""
+    try:
+        return is_network(tomllib.loads(_read(path)[0]))
+    except (OSError, SpecError, UsageError, tomllib.TOMLDecodeError, RecursionError):
+        return False
 
 
 def _inside(path: Path, folders: list[Path]) -> bool:
