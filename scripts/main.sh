@@ -12,7 +12,9 @@
 #      lane-change model (out/sim.sqlite, made anew), and draw it beside the paper's figures, with the transition
 #      coverage, the shadow mode and the safety checks (out/comparison/report.md);
 #   6. replay in SUMO the counterexamples of MLCA-T's gap-rule lemmas (the old time-gap rule against RSS;
-#      out/replay.json);
+#      out/replay.json), and of the first V2V protocol (its two AVs into one gap; out/replay_v2v.json), the
+#      same scenes driven by the repaired protocol (out/replay_v2v_repaired.json), and three AVs of each V2V
+#      protocol, each driving its own generated instance, through a lossy radio (out/sim_v2v.sqlite);
 #   7. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
 #      evidence of MLCA-T, the machine with data: its proofs, its generated code and its tests' coverage, its
 #      closed-loop runs with their transition coverage, and its physical-safety section (out/evidence_t/index.html).
@@ -32,6 +34,14 @@ rm -f out/sim.sqlite  # made anew: a database of an older layout is refused, and
 .venv/bin/mlca-sim report --db out/sim.sqlite --out out/comparison
 .venv/bin/mlca-verify evidence spec/mlca_r.toml --db out/sim.sqlite --out out/evidence
 .venv/bin/mlca-sim replay out/check.json --json out/replay.json
+# the V2V protocols closed loop: the first protocol's counterexamples as scenes in SUMO (they collide), the same
+# scenes driven by the repaired protocol, and three AVs of each protocol through a lossy radio
+.venv/bin/mlca-sim replay out/check_v2v.json --json out/replay_v2v.json
+.venv/bin/mlca-sim replay out/check_v2v.json --network spec/v2v/gap_repaired.toml --json out/replay_v2v_repaired.json
+rm -f out/sim_v2v.sqlite
+.venv/bin/mlca-sim sweep --controller mlca_t_v2v-c,mlca_t_claim-c --avs 3 --runs 4 --jobs 2 \
+    --scenario sim_check/scenarios/v2v_lossy.toml --db out/sim_v2v.sqlite
 .venv/bin/mlca-verify evidence spec/mlca_t.toml --db out/sim.sqlite --replay out/replay.json --out out/evidence_t
 echo "main: reports in out/check.json, out/check_v2v.json, out/conform.json, out/tests/, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
+    "out/replay_v2v.json, out/replay_v2v_repaired.json, out/sim_v2v.sqlite," \
     "out/evidence/ and out/evidence_t/ (open out/evidence/index.html)"

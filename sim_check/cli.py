@@ -109,6 +109,12 @@ def _parser() -> argparse.ArgumentParser:
         "--controller",
         help="drive every AV of a network's scene with this V2V controller (default: each instance's own machine)",
     )
+    replay.add_argument(
+        "--network",
+        type=Path,
+        help="drive each AV of a network's scene as this network spec's instance of its name (its machine and "
+        "params): another protocol on the same scene",
+    )
     replay.add_argument("--json", type=Path, help="also write the outcome as JSON")
     return parser
 
@@ -339,12 +345,15 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from sim_check.network_replay import load_scenes
+    from sim_check.network_replay import load_scenes, network_drivers
     from sim_check.replay import as_json, describe, load_points, outcome, read_replay_file
 
     if args.controller is not None and args.controller not in V2V_CONTROLLERS:
         raise UsageError(f"error: --controller must be a V2V controller ({', '.join(V2V_CONTROLLERS)})")
-    scenes = load_scenes(args.file, read_replay_file(args.file), args.controller)  # read before SUMO starts
+    if args.controller is not None and args.network is not None:
+        raise UsageError("error: give --controller or --network, not both")
+    drivers = None if args.network is None else network_drivers(args.network)
+    scenes = load_scenes(args.file, read_replay_file(args.file), args.controller, drivers)  # read before SUMO starts
     points = [] if scenes and args.lemma is None else load_points(args.file, args.lemma, args.side)
     require_extra("replay")
     from sim_check.replay import replay

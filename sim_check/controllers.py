@@ -186,7 +186,7 @@ class Controller:
     claims_at: tuple[int, ...] = ()  # a machine talking to the other AVs: its claims_left and claims_right outputs
 
     def __post_init__(self) -> None:
-        self.context: Callable[[], Any] = self.machine.context
+        self.context: Callable[..., Any] = self.machine.context
         self.advance: Callable[..., tuple[Any, ...]] = self.machine.advance
         self.values = input_values(self.inputs)
 

@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 from mlca_verify.errors import UsageError
+from mlca_verify.spec import load_spec
 from mlca_verify.words import count
 from sim_check.controllers import SETUPS, load_controller
 from sim_check.radio import V2V, Claim, Moves, Radio, Traffic, heard
@@ -50,6 +52,7 @@ class Scene:
     controllers: dict[str, str]  # instance -> the controller that drives it
     radio: V2V
     expect: str | None = "conflict"  # driven by its own machines, a violation shows; by another protocol: no guess
+    params: dict[str, dict[str, float | int]] = field(default_factory=dict)  # instance -> its params
 
 
 @dataclass
@@ -67,15 +70,36 @@ class SceneRun:
 # ---- reading the scenes ---------------------------------------------------------------------------------------
 
 
-def load_scenes(path: Path, text: str, controller: str | None) -> list[Scene]:
+Drivers = dict[str, tuple[str, dict[str, float | int]]]  # instance -> the controller and the params it runs with
+
+
+def network_drivers(network: Path) -> Drivers:
+    """Each instance of a network spec as a driver: its machine's V2V controller and the params it sets."""
+    loaded = load_spec(network, compare=False, network=True)
+    if loaded.network is None:
+        raise UsageError.at(network, "not a network spec: --network names one whose instances drive the scene")
+    drivers: Drivers = {}
+    for inst in loaded.network.instances:
+        own = {p.name: p.default for p in load_spec(network.parent / inst.spec, compare=False).machine.params}
+        overrides = {p.name: _number(p.default, p.type) for p in inst.machine.params if p.default != own.get(p.name)}
+        drivers[inst.name] = (_own_controller(network, str(network), inst.name, inst.machine.name), overrides)
+    return drivers
+
+
+def _number(value: Fraction, kind: str) -> float | int:
+    return int(value) if kind == "int" else float(value)
+
+
+def load_scenes(path: Path, text: str, controller: str | None, drivers: Drivers | None = None) -> list[Scene]:
     """The scenes of every violated invariant of a network in a `mlca-verify check --json` document (none for a
-    document without networks); `controller` drives every AV instead of each instance's own machine."""
+    document without networks); `controller` drives every AV instead of each instance's own machine, and
+    `drivers` (another network's instances, by name) drive them with their params."""
     try:
         doc = json.loads(text)
     except (ValueError, RecursionError):
         return []  # not JSON: a point file, read by sim_check.replay
     scenes = [
-        _scene(path, spec, result, controller)
+        _scene(path, spec, result, controller, drivers)
         for spec in _items(doc.get("specs") if isinstance(doc, dict) else None)
         if isinstance(spec, dict) and isinstance(spec.get("network"), dict)
         for result in _items(spec.get("results"))
@@ -88,7 +112,9 @@ def load_scenes(path: Path, text: str, controller: str | None) -> list[Scene]:
     return scenes
 
 
-def _scene(path: Path, spec: dict[str, Any], result: dict[str, Any], controller: str | None) -> Scene:
+def _scene(
+    path: Path, spec: dict[str, Any], result: dict[str, Any], controller: str | None, drivers: Drivers | None
+) -> Scene:
     network = spec["network"]
     source = f"{_text(spec.get('path'))}: {_text(result.get('property'))}"
     lanes = _lanes(path, source, network.get("channels"))
@@ -99,8 +125,14 @@ def _scene(path: Path, spec: dict[str, Any], result: dict[str, Any], controller:
     inputs = [s["inputs"] for s in steps if isinstance(s, dict) and isinstance(s.get("inputs"), dict)]
     needs = {name: (_ever(inputs, f"{name}.N"), _ever(inputs, f"{name}.U")) for name in lanes}
     machines = {i.get("name"): i.get("machine") for i in _items(network.get("instances")) if isinstance(i, dict)}
-    drivers = {name: controller or _own_controller(path, source, name, machines.get(name)) for name in lanes}
-    return Scene(source, lanes, needs, drivers, _worst(network.get("channels")), None if controller else "conflict")
+    radio = _worst(network.get("channels"))
+    if drivers is not None:
+        if missing := sorted(set(lanes) - set(drivers)):
+            raise UsageError.at(path, f"{source}: --network has no instance {missing[0]} to drive it")
+        chosen = {name: drivers[name][0] for name in lanes}
+        return Scene(source, lanes, needs, chosen, radio, None, {name: drivers[name][1] for name in lanes})
+    chosen = {name: controller or _own_controller(path, source, name, machines.get(name)) for name in lanes}
+    return Scene(source, lanes, needs, chosen, radio, None if controller else "conflict")
 
 
 def _ever(inputs: list[dict[str, Any]], name: str) -> bool:
@@ -190,7 +222,7 @@ class SceneLoop:
     def __init__(self, sumo: Any, scene: Scene) -> None:
         self.sumo, self.scene, self.read = sumo, scene, Reads(sumo)
         self.ctrls = {name: load_controller(c) for name, c in scene.controllers.items()}
-        self.contexts = {name: ctrl.context() for name, ctrl in self.ctrls.items()}
+        self.contexts = {name: ctrl.context(scene.params.get(name)) for name, ctrl in self.ctrls.items()}
         self.run, self.radio, self.moves = SceneRun(), Radio.seeded(scene.radio, 0), Moves(scene.radio.radius_m)
 
     def step(self, k: int) -> bool:
@@ -249,6 +281,8 @@ def _routes(scene: Scene, work: Path) -> Path:
 def describe(scene: Scene, run: SceneRun) -> str:
     where = ", ".join(f"{n} in lane {lane}" for n, lane in scene.lanes.items())
     drivers = ", ".join(sorted(set(scene.controllers.values())))
+    if scene.params:
+        drivers += " (" + "; ".join(f"{n}: {_params_words(p)}" for n, p in scene.params.items()) + ")"
     moved = ", ".join(f"{n} at {s:.1f} s" for n, s in sorted(run.moved_s.items())) or "none"
     said = [
         f"{scene.source}: {where}, side by side at {CRUISE_MS:g} m/s, the gap in lane {GAP_LANE}; driven by {drivers}",
@@ -264,6 +298,10 @@ def describe(scene: Scene, run: SceneRun) -> str:
     else:
         said.append("  no conflict: no two AVs moved into one lane near each other, and SUMO saw no collision")
     return "\n".join(said)
+
+
+def _params_words(params: dict[str, float | int]) -> str:
+    return ", ".join(f"{k} = {v:g}" for k, v in params.items()) or "its machine's params"
 
 
 def _radio_words(v: V2V) -> str:

@@ -15,7 +15,8 @@ from __future__ import annotations
 import importlib.util
 import sys
 import sysconfig
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -51,12 +52,14 @@ def flag_definitions(ir: MachineIR) -> tuple[str, ...]:
 
 
 class Watched:
-    """A context of the generated Python and the observers its monitor keeps beside it (the variables only
-    invariants read, see `MachineIR.observers`), as one context of `PythonMachine`; `mode` is the context's."""
+    """A context of the generated Python, the observers its monitor keeps beside it (the variables only invariants
+    read, see `MachineIR.observers`; None where it keeps none) and the params it runs with, as one context of
+    `PythonMachine`; `mode` is the context's."""
 
-    def __init__(self, ctx: Any, observers: Any) -> None:
+    def __init__(self, ctx: Any, observers: Any, params: Any) -> None:
         self.ctx = ctx
         self.observers = observers
+        self.params = params
 
     @property
     def mode(self) -> Any:
@@ -73,23 +76,27 @@ class PythonMachine:
     (packed, *outputs): the mode reached, HOLDS where every invariant holds after the step, the number of the
     transition that fired plus one, shifted left by FIRED_SHIFT (0 where the mode was not a state), and the values
     of `flags` (the boolean definitions) in the context before the step, from DEFS_SHIFT on. Values are the inputs'
-    and then the signals', in declared order; the params are the spec's defaults. `failing` names the invariants
-    that failed in the last step."""
+    and then the signals', in declared order; the params are the spec's defaults, but for those `context` is given.
+    `failing` names the invariants that failed in the last step."""
 
     def __init__(self, module: ModuleType, flags: Sequence[str]) -> None:
         self.module = module
         self.flags = tuple(getattr(module, f"_def_{name}") for name in flags)
         self.failing: list[str] = []
 
-    def context(self) -> Any:
+    def context(self, params: Mapping[str, float | int] | None = None) -> Watched:
+        """A new context that runs with the spec's params but `params` (by name; each within its range)."""
         m = self.module
-        return Watched(m.Context(), m.Observers()) if hasattr(m, "Observers") else m.Context()
+        chosen = replace(m.DEFAULT_PARAMS, **params) if params else m.DEFAULT_PARAMS
+        if not chosen.valid():
+            raise ToolError(f"error: params {dict(params or {})} lie outside their ranges")
+        return Watched(m.Context(), m.Observers() if hasattr(m, "Observers") else None, chosen)
 
-    def advance(self, ctx: Any, *values: Any) -> tuple[Any, ...]:
+    def advance(self, ctx: Watched, *values: Any) -> tuple[Any, ...]:
         m = self.module
-        seen = (ctx.observers,) if isinstance(ctx, Watched) else ()
-        ctx = ctx.ctx if isinstance(ctx, Watched) else ctx
-        inputs, params = m.Inputs(*values), m.DEFAULT_PARAMS
+        seen = () if ctx.observers is None else (ctx.observers,)
+        inputs, params = m.Inputs(*values), ctx.params
+        ctx = ctx.ctx
         before = m.Context(**vars(ctx))
         fired = m._fired(before, inputs, params)
         out = m.step(ctx, inputs, params)
@@ -105,10 +112,23 @@ class CMachine:
     """The generated C of a machine, built with a small adapter into an extension module: the same
     calls as PythonMachine (the context is a bytearray); its monitor says only that an invariant failed."""
 
-    def __init__(self, extension: ModuleType) -> None:
-        self.context = extension.context
+    def __init__(self, extension: ModuleType, params: Sequence[str] = ()) -> None:
+        self.extension = extension
         self.advance = extension.advance
+        self.params = tuple(params)  # the params' names, in the spec's order (`set_param`'s indices)
         self.failing = ["invariants"]
+
+    def context(self, params: Mapping[str, float | int] | None = None) -> bytearray:
+        """A new context that runs with the spec's params but `params` (by name; each within its range)."""
+        ctx: bytearray = self.extension.context()
+        for name, value in (params or {}).items():
+            if name not in self.params:
+                raise ToolError(f"error: no param {name!r} (the params: {', '.join(self.params) or 'none'})")
+            try:
+                self.extension.set_param(ctx, self.params.index(name), value)
+            except ValueError:
+                raise ToolError(f"error: param {name} = {value} lies outside its range") from None
+        return ctx
 
 
 def load_python(layout: Layout, name: str, flags: Sequence[str] = ()) -> PythonMachine:
@@ -158,7 +178,7 @@ def build_c(layout: Layout, ir: MachineIR, build: Path, name: str) -> CMachine:
     ran = build_shared(machine_side, library, include)
     if ran.returncode != 0:
         raise ToolError(f"error: cannot build the generated C of {layout.module}: {_first_error(ran.output)}")
-    return CMachine(import_extension(library, name))
+    return CMachine(import_extension(library, name), [f.name for f in ir.params])
 
 
 def _first_error(output: str) -> str:
