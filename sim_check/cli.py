@@ -20,7 +20,7 @@ from mlca_verify import cli_base
 from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError, located
 from mlca_verify.escape import terminal
-from sim_check.controllers import CONTROLLERS, PAPER_MATRIX, V2V_CONTROLLERS, load_controller, setup_of
+from sim_check.controllers import CONTROLLERS, PAPER_MATRIX, V2V_CONTROLLERS
 from sim_check.db import Plan, ResultsDB
 from sim_check.radio import traffic_text
 from sim_check.replay import MAX_REPLAY_POINTS
@@ -28,6 +28,7 @@ from sim_check.run_results import MARKS_KM, Job, RunResult
 from sim_check.scenario import LIMITS, MAX_SEED, Scenario, load_scenario
 
 if TYPE_CHECKING:  # SUMO and the plotting libraries are the `sim` extra: imported by the commands that use them
+    from sim_check.network_replay import Scene
     from sim_check.sweep import Sweep
 
 SIM_EXTRA = ("libsumo", "sumo", "sumolib", "numpy", "scipy", "matplotlib")
@@ -180,7 +181,7 @@ def _run(args: argparse.Namespace, scenario: Scenario, results: ResultsDB | None
         f"{result.sim_steps} steps, {result.vehicle_steps} vehicle-steps, {result.wall_s:.2f} s wall, "
         f"{result.collisions} collisions, {result.monitor_violations} monitor violations"
     )
-    if setup_of(args.controller).generated and load_controller(args.controller).claims_at:
+    if args.controller in V2V_CONTROLLERS:
         print(f"V2V: {traffic_text(result.v2v, scenario.v2v)}")
     if results and not results.store(result):
         print(f"{args.db}: another process stored this run meanwhile; not stored again", file=sys.stderr)
@@ -384,7 +385,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return 1 if unexpected or any(n["expected"] not in (None, n["outcome"]) for n in networks) else 0
 
 
-def _replay_scenes(scenes: list[Any], work: Path) -> list[dict[str, Any]]:
+def _replay_scenes(scenes: list[Scene], work: Path) -> list[dict[str, Any]]:
     """Each network counterexample's scene driven in SUMO, printed; their JSON."""
     from sim_check.network_replay import as_json, describe, run_scene
 

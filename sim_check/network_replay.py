@@ -25,7 +25,7 @@ from typing import Any
 from mlca_verify.errors import UsageError
 from mlca_verify.spec import load_spec
 from mlca_verify.words import count
-from sim_check.controllers import SETUPS, load_controller
+from sim_check.controllers import V2V_CONTROLLERS, load_controller
 from sim_check.radio import V2V, Claim, Moves, Radio, Traffic, heard
 from sim_check.reads import Reads
 from sim_check.replay import LENGTH_M, STEP_S, straight_road
@@ -159,8 +159,7 @@ def _lanes(path: Path, source: str, channels: object) -> dict[str, int]:
 
 def _own_controller(path: Path, source: str, instance: str, machine: object) -> str:
     name = f"{_text(machine).lower()}-c"
-    setup = SETUPS.get(name)
-    if setup is None or setup.generated is None or setup.generated.folder != "v2v":
+    if name not in V2V_CONTROLLERS:
         raise UsageError.at(
             path,
             f"{source}: instance {instance}'s machine {_text(machine)!r} has no V2V controller in the closed loop; "
@@ -249,9 +248,8 @@ class SceneLoop:
         speed = sumo.vehicle.getSpeed(name)
         sensed = signals(self.read, name, lane, lanes=3, speed=speed, side=side if need else 0)
         _, *outputs = ctrl.advance(self.contexts[name], need, left, right, urgent and need, *sensed)
-        for claim_side, at in zip((1, -1), ctrl.claims_at, strict=True):
-            if outputs[at]:
-                self.radio.send(k, Claim(name, "road", lane + claim_side, pos), list(scene.lanes))
+        claims = [outputs[at] for at in ctrl.claims_at]
+        self.radio.send_claims(k, name, ("road", lane, pos), claims, list(scene.lanes))
         command = outputs[ctrl.command_at] if ctrl.command_at is not None else 0
         if command and name not in self.run.moved_s:
             self.moves.moving(Claim(name, "road", lane + command, pos))

@@ -14,6 +14,8 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass, field
 
+from mlca_verify.words import count
+
 
 @dataclass(frozen=True)
 class V2V:
@@ -26,10 +28,6 @@ class V2V:
     max_delay: int = 1  # most steps
     duplicate: float = 0.0  # probability that a message read is read again the step after
     radius_m: float = 30.0  # how far along the road a claim concerns another AV
-
-    @property
-    def perfect(self) -> bool:
-        return self.loss == 0.0 and self.delay == self.max_delay == 1 and self.duplicate == 0.0
 
 
 @dataclass(frozen=True)
@@ -91,6 +89,18 @@ class Radio:
                 self.traffic.duplicated += 1
                 queue.append((step + delay + 1, claim))
 
+    def send_claims(
+        self, step: int, sender: str, where: tuple[str, int, float], claims: list[bool], receivers: list[str]
+    ) -> None:
+        """What a controller's claim outputs (`claims`: of the lane to its left, of the lane to its right) say at
+        `step`, from `sender` in lane `where[1]` of edge `where[0]` at `where[2]`, sent to the `receivers` (none
+        when the radio is off)."""
+        edge, lane, pos = where
+        if self.model.on:
+            for side, claimed in zip((1, -1), claims, strict=True):
+                if claimed:
+                    self.send(step, Claim(sender, edge, lane + side, pos), receivers)
+
     def read(self, step: int, receiver: str) -> list[Claim]:
         """The claims `receiver` reads at `step`, dropped from the channel with those due at a step it did not
         listen (on the ramp, in a junction): a message is read at its step or never."""
@@ -141,8 +151,7 @@ def traffic_text(t: Traffic, model: V2V) -> str:
     if not model.on:
         return "off (no message sent)"
     return (
-        f"{t.sent} {'message' if t.sent == 1 else 'messages'} sent (one per claim and receiver), {t.lost} lost, "
-        f"{t.late} late (more than {model.delay} {'step' if model.delay == 1 else 'steps'}), {t.duplicated} read "
-        f"twice; {t.conflicts} {'time' if t.conflicts == 1 else 'times'} two AVs moved into one lane within "
-        f"{model.radius_m:g} m of each other"
+        f"{count(t.sent, 'message')} sent (one per claim and receiver), {t.lost} lost, {t.late} late (more than "
+        f"{count(model.delay, 'step')}), {t.duplicated} read twice; {count(t.conflicts, 'time')} two AVs moved "
+        f"into one lane within {model.radius_m:g} m of each other"
     )

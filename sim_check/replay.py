@@ -118,16 +118,15 @@ def read_replay_file(path: Path) -> str:
         raise UsageError.at(path, "not UTF-8") from None
 
 
-def load_points(path: Path, lemma: str | None, side: str, *, required: bool = True) -> list[Point]:
+def load_points(path: Path, lemma: str | None, side: str) -> list[Point]:
     """The points in FILE: a `mlca-verify check --json` document (each violated lemma's counterexample, or the
     one of `lemma`, read through the side's signals) or a TOML file with a `[point]` table (and `[params]`). A
-    `.json` file is read as JSON; a file of another name as JSON when it starts with `{`, else as TOML. A report
-    with no such counterexample is refused where `required`, else gives none."""
+    `.json` file is read as JSON; a file of another name as JSON when it starts with `{`, else as TOML."""
     if lemma is not None:
         _lemma_name("mlca-sim replay", "--lemma", lemma)
     text = read_replay_file(path)
     if path.suffix.lower() == ".json" or text.lstrip().startswith("{"):
-        return _from_check_json(path, text, lemma, side, required)
+        return _from_check_json(path, text, lemma, side)
     if lemma is not None:
         raise UsageError.at(path, "--lemma needs a `mlca-verify check --json` file")
     return [_from_toml(path, text)]
@@ -151,7 +150,7 @@ def _from_toml(path: Path, text: str) -> Point:
     return replace(_point(path, values, params, str(path)), expect=expect)
 
 
-def _from_check_json(path: Path, text: str, lemma: str | None, side: str, required: bool) -> list[Point]:
+def _from_check_json(path: Path, text: str, lemma: str | None, side: str) -> list[Point]:
     try:
         doc = json.loads(text)
     except RecursionError:
@@ -173,7 +172,7 @@ def _from_check_json(path: Path, text: str, lemma: str | None, side: str, requir
         if _wanted(result, lemma) and (lemma is not None or _about(_first_step(result), side)):
             point = _counterexample(path, spec, result, side)
             points.setdefault(_identity(point), point)
-    if not points and required:
+    if not points:
         what = f"lemma {lemma}" if lemma else f"a violated lemma about the {side} side"
         raise UsageError.at(path, f"no counterexample of {what} in this file")
     if len(points) > MAX_REPLAY_POINTS:

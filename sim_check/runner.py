@@ -270,17 +270,13 @@ class ClosedLoop:
         edge, lane, pos = where
         need = self.need_of(av, where, leader)
         self.ledger.wish(av, t, need)
-        v2v = self.scenario.v2v
-        left, right = heard(self.radio.read(self.steps, av.id), edge, lane, pos, v2v.radius_m)
+        left, right = heard(self.radio.read(self.steps, av.id), edge, lane, pos, self.scenario.v2v.radius_m)
         sensed = signals(self.read, av.id, lane, lanes=self.network.lanes[edge], speed=speed, side=need.side)
         values = (need.side != 0, left, right, need.urgent, *sensed)
         seen = {"N": values[0], "heard_left": left, "heard_right": right, "U": need.urgent, "signals": sensed}
         packed, outputs = self.machine_step(av, t, values, seen)
-        if v2v.on:
-            receivers = [d.id for d in self.driving]
-            for side, at in zip((1, -1), self.ctrl.claims_at, strict=True):
-                if outputs[at]:
-                    self.radio.send(self.steps, Claim(av.id, edge, lane + side, pos), receivers)
+        said = [outputs[at] for at in self.ctrl.claims_at]
+        self.radio.send_claims(self.steps, av.id, where, said, [d.id for d in self.driving])
         command_at = self.ctrl.command_at
         assert command_at is not None
         side = outputs[command_at]
