@@ -20,6 +20,7 @@ from mlca_verify import cli_base
 from mlca_verify.cli_base import EXIT_INTERRUPTED, Parser, write_json
 from mlca_verify.errors import MlcaError, UsageError, located
 from mlca_verify.escape import terminal
+from mlca_verify.files import write_atomic
 from sim_check.controllers import CONTROLLERS, PAPER_MATRIX, V2V_CONTROLLERS
 from sim_check.db import Plan, ResultsDB
 from sim_check.radio import traffic_text
@@ -95,6 +96,18 @@ def _parser() -> argparse.ArgumentParser:
     report = sub.add_parser("report", help="figures and report.md beside the paper's values, from a results database")
     report.add_argument("--db", type=Path, required=True, help="results database (SQLite) written by sweep")
     report.add_argument("--out", type=Path, required=True, help="folder for the figures (PNG, SVG) and report.md")
+    channels = sub.add_parser(
+        "channels", help="the same controllers under several V2V channels, side by side (a database per channel)"
+    )
+    channels.add_argument(
+        "--db",
+        type=str,
+        action="append",
+        required=True,
+        metavar="LABEL=FILE",
+        help="a channel's label and the results database of its sweep (say off=off.sqlite); once per channel",
+    )
+    channels.add_argument("--out", type=Path, help="also write channels.md and the figure (PNG, SVG) to this folder")
     replay = sub.add_parser(
         "replay", help="a lemma's counterexample (or a point) as traffic in SUMO: RSS's worst case after the change"
     )
@@ -345,6 +358,30 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_channels(args: argparse.Namespace) -> int:
+    from sim_check import channels
+
+    given = [channels.labelled(text) for text in args.db]
+    channels.check_labels([label for label, _ in given])
+    read: list[channels.Channel] = []
+    for label, path in given:  # every database read (or refused) before anything is written
+        if not path.is_file():
+            raise UsageError.at(path, "no such results database")
+        with ResultsDB.open_for_reading(path) as results:
+            read.append(channels.Channel(label, results.v2v_runs()))
+    table = channels.rows(read)
+    for line in channels.text(table).splitlines():
+        print(terminal(line))
+    if args.out is not None:
+        require_extra("report")
+        args.out.mkdir(parents=True, exist_ok=True)
+        sources = [(label, path.name) for label, path in given]
+        write_atomic(args.out / "channels.md", channels.markdown(table, sources))
+        written = ["channels.md", *(p.name for p in channels.figure(table, args.out))]
+        print(f"wrote {len(written)} files to {args.out}: {', '.join(written)}")
+    return 0
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
     from sim_check.network_replay import load_scenes, network_drivers
     from sim_check.replay import as_json, describe, load_points, outcome, read_replay_file
@@ -409,7 +446,7 @@ def _replay_scenes(scenes: list[Scene], work: Path) -> list[dict[str, Any]]:
     return done
 
 
-COMMANDS = {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report, "replay": cmd_replay}
+COMMANDS = {"run": cmd_run, "sweep": cmd_sweep, "report": cmd_report, "channels": cmd_channels, "replay": cmd_replay}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

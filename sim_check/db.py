@@ -131,6 +131,14 @@ REPORT_MECHANISM = (
     " WHERE r.status = 'done' AND m.needs IS NOT NULL GROUP BY m.controller, m.avs"
 )
 SUMMARY_COLUMNS = ("controller", "status", "monitor_violations")
+# per finished run: lane changes by 20 km, collisions and SSM conflicts summed over its AVs, and what the radio
+# carried (schema 4)
+V2V_RUNS = (
+    "SELECT r.controller, r.avs, r.seed, SUM(m.lc_20km), SUM(m.collisions), SUM(m.ssm_conflicts),"
+    f" {', '.join(f'r.v2v_{name}' for name in V2V_COUNTS)}"
+    " FROM runs r JOIN av_metrics m USING (controller, avs, seed) WHERE r.status = 'done'"
+    " GROUP BY r.controller, r.avs, r.seed ORDER BY r.controller, r.avs, r.seed"
+)
 
 
 @dataclass(frozen=True)
@@ -282,6 +290,24 @@ def _mechanism_totals(row: tuple[Any, ...]) -> MechanismTotals:
     return MechanismTotals(controller, avs, count, needs, moved, still, deferred, need_s, deferred_s, tuple(state_s))
 
 
+def _v2v_runs(conn: sqlite3.Connection, path: Path) -> list[tuple[Any, ...]]:
+    have = {row[1] for row in conn.execute("PRAGMA table_info(runs)")}
+    if "runs" not in tables(conn) or not {f"v2v_{name}" for name in V2V_COUNTS} <= have:
+        raise UsageError.at(path, "no V2V counts in this results database (they came with schema 4); sweep again")
+    return conn.execute(V2V_RUNS).fetchall()
+
+
+def _v2v_totals(conn: sqlite3.Connection, controllers: Sequence[str]) -> dict[str, int]:
+    have = {row[1] for row in conn.execute("PRAGMA table_info(runs)")}
+    if not {f"v2v_{name}" for name in V2V_COUNTS} <= have:
+        return {}
+    sums = ", ".join(f"COALESCE(SUM(v2v_{name}), 0)" for name in V2V_COUNTS)
+    marks = ", ".join("?" for _ in controllers)
+    query = f"SELECT {sums} FROM runs WHERE status = 'done' AND controller IN ({marks})"
+    totals = dict(zip(V2V_COUNTS, conn.execute(query, tuple(controllers)).fetchone(), strict=True))
+    return totals if totals["sent"] else {}
+
+
 def _monitor_summary(conn: sqlite3.Connection, path: Path, controllers: Sequence[str]) -> MonitorSummary:
     have = {row[1] for row in conn.execute("PRAGMA table_info(runs)")}
     missing = [column for column in SUMMARY_COLUMNS if column not in have]
@@ -380,6 +406,16 @@ class ResultsDB:
         """Runs, failed runs and monitor violations of the runs of `controllers`. Needs only the columns
         controller, status and monitor_violations of table runs; without them the file is refused."""
         return reading(self._conn, lambda c: _monitor_summary(c, self.path, controllers))
+
+    def v2v_runs(self) -> list[tuple[Any, ...]]:
+        """Per finished run (controller, avs, seed, lane changes by 20 km, collisions, SSM conflicts, then the
+        radio's counts in V2V_COUNTS' order); a database older than schema 4 is refused."""
+        return reading(self._conn, lambda c: _v2v_runs(c, self.path))
+
+    def v2v_totals(self, controllers: Sequence[str]) -> dict[str, int]:
+        """What the radio carried in the finished runs of `controllers`, summed (V2V_COUNTS; empty for a database
+        older than schema 4, or where none of them sent anything)."""
+        return reading(self._conn, lambda c: _v2v_totals(c, controllers))
 
     def transition_counts(self, controllers: Sequence[str]) -> dict[str, int]:
         """How often each transition fired in the finished runs of `controllers` (empty for a database of schema

@@ -63,7 +63,7 @@ LANE_FIGURES = (
             ("mlca-c", 3): (4, 7, 11, 13),
             ("without", 3): (5, 9, 17, 20),
         },
-        extra=("mlca_r-c", "mlca_t-c"),
+        extra=("mlca_r-c", "mlca_t-c", "mlca_t_claim-c"),
     ),
 )
 
@@ -71,7 +71,22 @@ LANE_FIGURES = (
 # without an algorithm where the figure shows 6. The paper does not say for how many AVs.
 COLLISION_CITE = "Fig. 5 (Sec. IV-E)"
 PAPER_COLLISIONS = {"sl2015": 0, "mobil": 2, "idm-lc": 1, "continuous": 0, "mlca-c": 1, "without": 6}
-COLLISION_ORDER = ("sl2015", "mobil", "idm-lc", "continuous", "mlca-c", "without", "lc2013", "mlca_r-c", "mlca_t-c")
+COLLISION_ORDER = (
+    "sl2015",
+    "mobil",
+    "idm-lc",
+    "continuous",
+    "mlca-c",
+    "without",
+    "lc2013",
+    "mlca_r-c",
+    "mlca_t-c",
+    "mlca_t_claim-c",
+)
+# The paper's second scenario is three AVs in "real-time communication and coordination" (Sec. III-A), which Alg. 1
+# does not specify: its lane-change claims for three AVs are also judged on MLCA-T with the repaired V2V protocol
+# of spec/v2v/mlca_t_claim.toml, each AV its own generated instance, its claims sent through the scenario's radio.
+V2V_SUBJECT = "mlca_t_claim-c"
 
 
 @dataclass(frozen=True)

@@ -31,6 +31,7 @@ from sim_check.paper_results import (
     LANE_FIGURES,
     MARKS,
     PAPER_COLLISIONS,
+    V2V_SUBJECT,
     Claim,
     LaneFigure,
 )
@@ -142,7 +143,7 @@ def _fmt(m: Triple, digits: int = 2) -> str:
 
 
 # ---------------------------------------------------------------------------------------------------- figures
-def _pyplot() -> Any:
+def pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -152,7 +153,7 @@ def _pyplot() -> Any:
     return plt
 
 
-def _save(fig: Any, out: Path, stem: str) -> list[Path]:
+def save_figure(fig: Any, out: Path, stem: str) -> list[Path]:
     png, svg = io.BytesIO(), io.BytesIO()
     fig.savefig(png, format="png", dpi=110, metadata={"Software": None})
     fig.savefig(svg, format="svg", metadata={"Date": None, "Creator": None})
@@ -172,7 +173,7 @@ def shown(data: Data, fig_spec: LaneFigure) -> tuple[str, ...]:
 
 
 def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
-    plt = _pyplot()
+    plt = pyplot()
     series = [(c, avs) for avs in (1, 3) for c in shown(data, fig_spec)]
     fig, ax = plt.subplots(figsize=(12.5, 4.8))
     width = 0.8 / (len(series) * 2)
@@ -200,7 +201,7 @@ def lane_figure(data: Data, fig_spec: LaneFigure, out: Path) -> list[Path]:
     ax.set_title(f"{fig_spec.title} (paper: {fig_spec.cite}); bars: mean of the runs, 95% CI")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
-    paths = _save(fig, out, fig_spec.key)
+    paths = save_figure(fig, out, fig_spec.key)
     plt.close(fig)
     return paths
 
@@ -238,13 +239,13 @@ def _finish(ax: Any, controllers: list[str], ylabel: str, title: str) -> None:
 def _close(fig: Any, out: Path, stem: str, title: str) -> list[Path]:
     fig.suptitle(title)
     fig.tight_layout()
-    paths = _save(fig, out, stem)
-    _pyplot().close(fig)
+    paths = save_figure(fig, out, stem)
+    pyplot().close(fig)
     return paths
 
 
 def collision_figure(data: Data, out: Path) -> list[Path]:
-    plt = _pyplot()
+    plt = pyplot()
     controllers = data.present()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), sharey=False)
     for ax, attr, title in (
@@ -269,7 +270,7 @@ def collision_figure(data: Data, out: Path) -> list[Path]:
 
 
 def cost_figure(data: Data, controllers: list[str], out: Path) -> list[Path]:
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.38
     for ax, attr, unit, title in (
@@ -303,9 +304,17 @@ def claim_rows(data: Data, claim: Claim) -> list[tuple[str, ClaimVerdict]]:
                 ),
             )
             for avs in claim.avs
-        ]
+        ] + _v2v_rows(data, claim)
     groups = {c: data.pooled(c, claim.metric) for c in COLLISION_ORDER if data.pooled(c, claim.metric)}
     return [("1 and 3 AVs pooled", extreme_verdict(claim.subject, groups, lowest=claim.kind == "lowest"))]
+
+
+def _v2v_rows(data: Data, claim: Claim) -> list[tuple[str, ClaimVerdict]]:
+    """A lane-change claim for three AVs judged on MLCA with V2V (V2V_SUBJECT), where the runs hold it."""
+    if 3 not in claim.avs or not data.values(V2V_SUBJECT, 3, "lc"):
+        return []
+    subject, baseline = data.values(V2V_SUBJECT, 3, "lc"), data.values(claim.baseline, 3, "lc")
+    return [(f"3 AVs, 20 km, with V2V (`{V2V_SUBJECT}`)", reduction_verdict(subject, baseline, claim.claimed))]
 
 
 TEMPLATE_DIR = Path(__file__).resolve().parent / "templates"  # shipped as package data

@@ -41,8 +41,8 @@ from sim_check.radio import Claim, Moves, Radio, heard
 from sim_check.reads import Leader, Reads
 from sim_check.run_results import SIDES, AvMetrics, RunResult
 from sim_check.scenario import Scenario, build, sumo_command
-from sim_check.sensing import LaneClaim, Network, claimed, sense
-from sim_check.signals import UNSENSED, signals
+from sim_check.sensing import Network, sense
+from sim_check.signals import signals
 
 DWELL_S = 3.0  # a command is not repeated within this time (SUMO's change is instantaneous)
 TRACE_STEPS = 20  # steps of history stored with a monitor violation
@@ -110,9 +110,8 @@ class ClosedLoop:
             self.ledger.collide(collisions)
         speeds = 0.0
         if self.driving:
-            claims: list[LaneClaim] = []
             for av in self.driving:
-                speeds += self.drive(av, t, claims)
+                speeds += self.drive(av, t)
             if self.moves.now or self.moves.pairs:
                 self.moves.end_step(self.radio.traffic)
         self.steps += 1
@@ -154,7 +153,7 @@ class ClosedLoop:
                 self.radio.forget(vid)
                 self.ledger.arrived(av)
 
-    def drive(self, av: Driving, t: float, claims: list[LaneClaim]) -> float:
+    def drive(self, av: Driving, t: float) -> float:
         """One step of one AV: observe it (its metrics), and let its controller decide. Returns its speed."""
         read, m, vid = self.read, av.m, av.id
         edge, lane, pos = read.road(vid), read.lane(vid), read.position(vid)
@@ -183,7 +182,7 @@ class ClosedLoop:
         self.trail.append((vid, edge, lane, pos))
         # lane decisions are made off the ramp (one lane) and outside junctions: tested inline, on the hot path
         if self.decide is not None and edge != "ramp" and edge[:1] != ":":
-            self.decide(av, t, claims, (edge, lane, pos), leader=leader, speed=speed)
+            self.decide(av, t, (edge, lane, pos), leader=leader, speed=speed)
         return speed
 
     def moved_on(self, av: Driving, t: float, lane_id: str, edge: str, lane: int) -> None:
@@ -211,53 +210,47 @@ class ClosedLoop:
         self,
         av: Driving,
         t: float,
-        claims: list[LaneClaim],
         where: tuple[str, int, float],
         *,
         leader: Leader,
         speed: float,
     ) -> None:
-        """A boolean machine decides on N, W, L and R (sim_check.sensing), its lane then claimed for the other AVs;
-        or, "without algorithm", the AV moves wherever the need points."""
+        """A boolean machine decides on N, W, L and R (sim_check.sensing); or, "without algorithm", the AV moves
+        wherever the need points."""
         need = self.need_of(av, where, leader)
         self.ledger.wish(av, t, need)
         if self.ctrl is None:
-            self.move(av, t, where, need.side, None)
+            self.move(av, t, where, need.side)
             self.ledger.track(av, need, False, need.side)
             return
-        inputs = sense(self.read, self.network, av.id, where, need, claims=claims, speed=speed)
+        inputs = sense(self.read, self.network, av.id, where, need, speed=speed)
         side = self.machine(av, t, inputs)
-        self.move(av, t, where, side, claims)
+        self.move(av, t, where, side)
         self.ledger.track(av, need, inputs["L"] or inputs["R"], side)
 
     def decide_data(
         self,
         av: Driving,
         t: float,
-        claims: list[LaneClaim],
         where: tuple[str, int, float],
         *,
         leader: Leader,
         speed: float,
     ) -> None:
-        """A machine with data decides on N, U and the raw signals, with its generated code alone; a side another
-        AV claimed near the same position this step (V2V) is reported unsensed."""
-        edge, lane, pos = where
+        """A machine with data decides on N, U and the raw signals, with its generated code alone."""
+        edge, lane, _ = where
         need = self.need_of(av, where, leader)
         self.ledger.wish(av, t, need)
         lanes = self.network.lanes[edge]
         sensed = signals(self.read, av.id, lane, lanes=lanes, speed=speed, side=need.side)
-        if need.side and claimed(claims, av.id, edge, lane + need.side, pos):
-            sensed = (speed, *UNSENSED, *UNSENSED)
         side, safe = self.data_machine(av, t, need, sensed)
-        self.move(av, t, where, side, claims)
+        self.move(av, t, where, side)
         self.ledger.track(av, need, safe, side)
 
     def decide_v2v(
         self,
         av: Driving,
         t: float,
-        claims: list[LaneClaim],
         where: tuple[str, int, float],
         *,
         leader: Leader,
@@ -282,7 +275,7 @@ class ClosedLoop:
         side = outputs[command_at]
         if side:
             self.moves.moving(Claim(av.id, edge, lane + side, pos))
-        self.move(av, t, where, side, None)
+        self.move(av, t, where, side)
         self.ledger.track(av, need, bool(packed & self.safe_bits), side)
 
     def data_machine(self, av: Driving, t: float, need: Need, sensed: tuple[float, ...]) -> tuple[int, bool]:
@@ -298,7 +291,6 @@ class ClosedLoop:
         self,
         av: Driving,
         t: float,
-        claims: list[LaneClaim],
         where: tuple[str, int, float],
         *,
         leader: Leader,
@@ -336,23 +328,17 @@ class ClosedLoop:
             self.ledger.violation(av, t, ctrl.failing())
         return packed, outputs
 
-    def move(
-        self, av: Driving, t: float, where: tuple[str, int, float], side: int, claims: list[LaneClaim] | None
-    ) -> None:
+    def move(self, av: Driving, t: float, where: tuple[str, int, float], side: int) -> None:
         """The side a controller moves to this step (a generated machine's state, or "without"'s need): a move is
         commanded when the side begins (as soon as DWELL_S has passed since the last command), and again (a
-        repeat) while it lasts, at most once per DWELL_S; the lane moved to is claimed for the other AVs where
-        `claims` is given (V2V, the generated machines)."""
+        repeat) while it lasts, at most once per DWELL_S."""
         if not side:
             av.moving = 0
             return
         if side == av.moving and t - av.last_change < DWELL_S:
             return
-        edge, lane, pos = where
-        if self.command(av, t, lane + side, repeat=side == av.moving):
+        if self.command(av, t, where[1] + side, repeat=side == av.moving):
             av.moving = side
-            if claims is not None:
-                claims.append(LaneClaim(av.id, edge, lane + side, pos))
 
     def command(self, av: Driving, t: float, target: int, *, repeat: bool) -> bool:
         """Ask SUMO for a lane change (SUMO's change is instantaneous), at most once per DWELL_S; SUMO's own

@@ -6,15 +6,16 @@ thresholds the docs state.
 - L, R: the need points to that side, and the gap there is safe: the leader in that lane is at least `TIME_GAP_S`
   ahead in time gap (and `MIN_GAP_M`), the follower at least `TIME_GAP_S` behind at its own speed, and the follower
   would not need to brake harder than `FOLLOWER_DECEL` to keep from closing the gap (a vehicle beside the AV is
-  reported as a leader or follower with a negative gap, so it fails the check); and no other AV has claimed that
-  lane near the same position this step (V2V). This time-gap rule is the paper's reading, kept for the boolean
-  machines; it is not safe by RSS (docs/findings.md F10): MLCA-T's rule is in its spec.
+  reported as a leader or follower with a negative gap, so it fails the check). This time-gap rule is the paper's
+  reading, kept for the boolean machines; it is not safe by RSS (docs/findings.md F10): MLCA-T's rule is in its
+  spec.
+- Nothing here knows what the other AVs intend: Alg. 1 has no messages. The V2V machines (spec/v2v/) claim a gap
+  and hear the others' claims through the radio (sim_check.radio), by their generated code alone.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 from sim_check.need import Need
@@ -23,17 +24,6 @@ from sim_check.reads import Reads
 TIME_GAP_S = 1.0
 MIN_GAP_M = 3.0
 FOLLOWER_DECEL = 4.0
-CLAIM_RADIUS_M = 30.0
-
-
-@dataclass(frozen=True, slots=True)
-class LaneClaim:
-    """A V2V message: an AV intends to move into `lane` of `edge` around position `pos`."""
-
-    av: str
-    edge: str
-    lane: int
-    pos: float
 
 
 class LaneCounts(dict[str, int]):
@@ -128,10 +118,6 @@ def _gap_ok(read: Reads, av: str, side: int, v: float) -> bool:
     return True
 
 
-def claimed(claims: list[LaneClaim], av: str, edge: str, lane: int, pos: float) -> bool:
-    return any(c.av != av and c.edge == edge and c.lane == lane and abs(c.pos - pos) < CLAIM_RADIUS_M for c in claims)
-
-
 def sense(
     read: Reads,
     network: Network,
@@ -139,15 +125,15 @@ def sense(
     where: tuple[str, int, float],
     need: Need,
     *,
-    claims: list[LaneClaim],
     speed: float,
 ) -> dict[str, bool]:
     """The inputs of one step. `where` is the AV's edge, lane index and position on the lane, `speed` its speed,
-    already read this step; `network` is the run's `Network` and `claims` the lanes other AVs claimed this step."""
-    edge, lane, pos = where
+    already read this step; `network` is the run's `Network`. What the other AVs intend is not sensed: the boolean
+    machines have no messages (the V2V machines of spec/v2v/ read theirs from the radio, sim_check.radio)."""
+    edge, lane, _ = where
     side = need.side
-    left = side > 0 and lane + 1 < network.lanes[edge] and not claimed(claims, av, edge, lane + 1, pos)
-    right = side < 0 and lane > 0 and not claimed(claims, av, edge, lane - 1, pos)
+    left = side > 0 and lane + 1 < network.lanes[edge]
+    right = side < 0 and lane > 0
     return {
         "N": side != 0,
         "W": not need.urgent,

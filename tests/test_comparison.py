@@ -14,7 +14,7 @@ import pytest
 from sim_check.cli import main
 from sim_check.controllers import PAPER_MATRIX, SETUPS
 from sim_check.db import ResultsDB
-from sim_check.paper_results import CLAIMS, LANE_FIGURES, MARKS
+from sim_check.paper_results import CLAIMS, LANE_FIGURES, MARKS, V2V_SUBJECT
 from sim_check.reads import Reads
 from sim_check.report import label, write_report
 from sim_check.runner import run_once, sumo_args
@@ -170,7 +170,19 @@ def test_report_tables_match_the_database(matrix_db: Path, tmp_path: Path) -> No
         assert (int(av_runs), int(episodes), int(never.split()[0])) == expected
     _check_loop_sections(matrix_db, report)
     claims = _table(report, "Claims")
-    assert len(claims) == sum(len(c.avs) if c.kind == "reduction" and c.metric == "lc" else 1 for c in CLAIMS)
+    lane_claims = [c for c in CLAIMS if c.kind == "reduction" and c.metric == "lc"]
+    with_v2v = sum(3 in c.avs for c in lane_claims)  # judged again on MLCA with V2V, which the matrix runs
+    assert len(claims) == sum(len(c.avs) if c in lane_claims else 1 for c in CLAIMS) + with_v2v
+    v2v_rows = [row for row in claims if row[2] == f"3 AVs, 20 km, with V2V (`{V2V_SUBJECT}`)"]
+    assert len(v2v_rows) == with_v2v
+    c3b = next(row for row in v2v_rows if row[0].startswith("C3b"))
+    per_run = {
+        c: [sum(m["lc_20km"] for m in group if m["seed"] == seed) for seed in (0, 1)]
+        for c in (V2V_SUBJECT, "without")
+        for group in [_where(matrix_db, "av_metrics", c, 3)]
+    }
+    reduction = 100.0 * (1 - sum(per_run[V2V_SUBJECT]) / sum(per_run["without"]))
+    assert float(c3b[4].split("%")[0]) == pytest.approx(reduction, abs=0.5)
     assert all(re.fullmatch(r"\*\*(reproduced|not reproduced|not comparable)\*\*", row[3]) for row in claims)
 
 

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import csv
 import re
 from pathlib import Path
 
 import pytest
 
+from scripts.refresh_comparison import rebuild
 from scripts.refresh_docs import BLOCK, DOCS, run
-from sim_check import db, schema
+from sim_check.cli import main as sim_main
 from sim_check.report import write_report
 from tests.conftest import ROOT
 
@@ -34,26 +34,6 @@ def test_block_matches_output(doc: str, args: str, body: str) -> None:
 COMPARISON = ROOT / "docs" / "comparison"
 
 
-def _rebuild(db_path: Path, comparison: Path = COMPARISON) -> None:
-    """The committed CSV rows of `comparison` back into a results database of this version's schema."""
-    with db.ResultsDB.open_for_writing(db_path) as results:
-        for table in schema.EXPORTED:
-            types = results.column_types(table)
-            with (comparison / f"{table}.csv").open(newline="", encoding="utf-8") as f:
-                reader = csv.reader(f)
-                header = next(reader)
-                cast = [CASTS[types[name]] for name in header]
-                rows = [tuple(c(v) for c, v in zip(cast, row, strict=True)) for row in reader]
-            results.add_rows(table, db.TableRows(tuple(header), rows))
-
-
-CASTS = {
-    "TEXT": str,
-    "INTEGER": lambda v: None if v == "" else int(v),
-    "REAL": lambda v: None if v == "" else float(v),
-}
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("comparison", "name"),
@@ -62,11 +42,25 @@ CASTS = {
 def test_committed_comparison_report_is_what_the_committed_rows_give(
     comparison: Path, name: str, tmp_path: Path
 ) -> None:
-    _rebuild(tmp_path / name, comparison)
+    rebuild(tmp_path / name, comparison)
     write_report(tmp_path / name, tmp_path / "out")
     committed = (comparison / "report.md").read_text(encoding="utf-8")
     assert (tmp_path / "out" / "report.md").read_text(encoding="utf-8") == committed, (
         f"{comparison} is stale: run .venv/bin/python scripts/refresh_comparison.py on the matrix database"
+    )
+
+
+@pytest.mark.slow
+def test_committed_v2v_channels_are_what_the_committed_rows_give(tmp_path: Path) -> None:
+    """docs/comparison/v2v/channels.md is what `mlca-sim channels` makes of the three channels' committed rows."""
+    dbs = []
+    for label in ("off", "perfect", "lossy"):
+        rebuild(tmp_path / f"{label}.sqlite", COMPARISON / "v2v" / label)
+        dbs += ["--db", f"{label}={tmp_path / f'{label}.sqlite'}"]
+    assert sim_main(["channels", *dbs, "--out", str(tmp_path / "out")]) == 0
+    committed = (COMPARISON / "v2v" / "channels.md").read_text(encoding="utf-8")
+    assert (tmp_path / "out" / "channels.md").read_text(encoding="utf-8") == committed, (
+        "docs/comparison/v2v is stale: run .venv/bin/python scripts/refresh_channels.py on the channels' databases"
     )
 
 

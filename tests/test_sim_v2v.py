@@ -4,6 +4,7 @@ seeded radio that loses, delays and repeats messages (sim_check.radio), and no c
 from __future__ import annotations
 
 import json
+import sqlite3
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import replace
@@ -19,8 +20,10 @@ from mlca_verify.conformance import conform
 from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.errors import SpecError, ToolError
 from mlca_verify.spec import load_spec
+from sim_check import channels
 from sim_check.cli import main as sim_main
 from sim_check.controllers import load_controller
+from sim_check.db import ResultsDB
 from sim_check.network_replay import load_scenes
 from sim_check.radio import V2V, Claim, Moves, Radio, Traffic, heard
 from sim_check.runner import run_once
@@ -314,3 +317,87 @@ def test_the_repaired_networks_instances_take_the_gap_one_at_a_time(
     assert scene["moved_s"]["A"] == pytest.approx(0.7)  # CLAIM_STEPS = 7 steps of claiming first
     machine = ROOT / "spec" / "v2v" / "mlca_t_claim.toml"
     assert sim_main(["replay", str(delayed_check), "--network", str(machine)]) == 2  # a machine, not a network
+
+
+# --- the same controllers under several channels -----------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_channels_compares_v2v_off_perfect_and_lossy_from_their_sweeps(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Three sweeps of the repaired protocol, one per channel (the short road, three AVs): `channels` puts them side
+    by side. Off sends nothing; perfect loses nothing and delivers nothing late; lossy loses and delays; the counts
+    are the sweeps' own, each a mean per run."""
+    radios = {"off": "on = false", "perfect": "loss = 0.0", "lossy": LOSSY_SCENARIO.read_text().split("\n[v2v]\n")[1]}
+    dbs = []
+    for label, section in radios.items():
+        scenario = tmp_path / f"{label}.toml"
+        scenario.write_text(LOSSY_SCENARIO.read_text().split("\n[v2v]\n")[0] + f"[v2v]\n{section}\n")
+        db = tmp_path / f"{label}.sqlite"
+        args = ["sweep", "--controller", "mlca_t_claim-c", "--avs", "3", "--runs", "2", "--jobs", "2"]
+        assert sim_main([*args, "--db", str(db), "--scenario", str(scenario)]) == 0
+        dbs += ["--db", f"{label}={db}"]
+    capsys.readouterr()
+    assert sim_main(["channels", *dbs, "--out", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in printed[:4]] == ["channel", "off", "perfect", "lossy"]
+    written = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert written == ["channels.md", "channels.png", "channels.svg"]
+    page = (tmp_path / "out" / "channels.md").read_text()
+    assert "off from `off.sqlite`" in page and "![V2V channels](channels.svg)" in page
+    lines = [line for line in page.splitlines() if line.startswith("|")]
+    header = [c.strip() for c in lines[0].strip("|").split("|")]
+    table = {
+        row[0]: dict(zip(header, row, strict=True))
+        for row in ([c.strip() for c in line.strip("|").split("|")] for line in lines[2:])
+    }
+    assert list(table) == ["off", "perfect", "lossy"]
+    assert float(table["off"]["messages sent"]) == 0.0
+    perfect, lossy = table["perfect"], table["lossy"]
+    assert float(perfect["messages sent"]) > 0 and float(perfect["lost"]) == float(perfect["late"]) == 0
+    assert float(lossy["lost"]) > 0 and float(lossy["late"]) > 0
+    with ResultsDB.open_for_reading(tmp_path / "lossy.sqlite") as results:
+        runs = results.v2v_runs()
+    assert float(lossy["messages sent"]) == pytest.approx(sum(r[6] for r in runs) / len(runs), abs=0.05)
+
+
+@pytest.mark.parametrize(
+    ("dbs", "message"),
+    [
+        (["off"], "--db wants LABEL=FILE"),
+        (["=x.sqlite"], "a channel's label is 1 to 40"),
+        (["a=x.sqlite", "a=y.sqlite"], "the channel label 'a' is given twice"),
+        (["a=missing.sqlite"], "missing.sqlite: error: no such results database"),
+    ],
+)
+def test_channels_refuses_a_wrong_db_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], dbs: list[str], message: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    args = [a for d in dbs for a in ("--db", d)]
+    assert sim_main(["channels", *args]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_channels_refuses_a_database_without_v2v_counts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A database of schema 3 (the committed comparison's rows before V2V): one line, exit 2."""
+    old = tmp_path / "old.sqlite"
+    with sqlite3.connect(old) as conn:
+        conn.execute("CREATE TABLE runs (controller TEXT, avs INTEGER, seed INTEGER, status TEXT)")
+    assert sim_main(["channels", "--db", f"old={old}"]) == 2
+    err = capsys.readouterr().err
+    assert "no V2V counts" in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_channels_rows_group_by_controller_and_keep_the_channels_order() -> None:
+    """Rows per (controller, AVs) in the order of the channels given; a value every run shares has no interval; a
+    label with Markdown in it is escaped."""
+    run = ("mlca_t_claim-c", 3, 0, 4, 0, 1, 10, 3, 2, 1, 0)
+    other = ("mlca_t_claim-c", 3, 1, 6, 0, 1, 20, 5, 4, 1, 0)
+    table = channels.rows([channels.Channel("b|*x*", [run, other]), channels.Channel("a", [run])])
+    assert [(r.channel, r.runs) for r in table] == [("b|*x*", 2), ("a", 1)]
+    assert table[0].messages["sent"][0] == 15.0 and table[0].lane_changes[1] < 5.0 < table[0].lane_changes[2]
+    assert table[0].ssm_conflicts == (1.0, 1.0, 1.0)
+    assert "| b\\|\\*x\\* |" in channels.markdown(table)
