@@ -14,10 +14,13 @@
 #   6. replay in SUMO the counterexamples of MLCA-T's gap-rule lemmas (the old time-gap rule against RSS;
 #      out/replay.json), and of the first V2V protocol (its two AVs into one gap; out/replay_v2v.json), the
 #      same scenes driven by the repaired protocol (out/replay_v2v_repaired.json), and three AVs of each V2V
-#      protocol, each driving its own generated instance, through a lossy radio (out/sim_v2v.sqlite);
+#      protocol, each driving its own generated instance, through a lossy radio (out/sim_v2v.sqlite), a perfect
+#      one and none, compared side by side (out/channels/channels.md);
 #   7. package it all as safety-case evidence for the repaired controller (out/evidence/index.html), and the
 #      evidence of MLCA-T, the machine with data: its proofs, its generated code and its tests' coverage, its
-#      closed-loop runs with their transition coverage, and its physical-safety section (out/evidence_t/index.html).
+#      closed-loop runs with their transition coverage, and its physical-safety section (out/evidence_t/index.html),
+#      and the evidence of the repaired V2V network: its goals, each vehicle's, the channels, the code, the lossy
+#      closed loop and the replays (out/evidence_v2v/index.html).
 # Reports go to out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -38,10 +41,18 @@ rm -f out/sim.sqlite  # made anew: a database of an older layout is refused, and
 # scenes driven by the repaired protocol, and three AVs of each protocol through a lossy radio
 .venv/bin/mlca-sim replay out/check_v2v.json --json out/replay_v2v.json
 .venv/bin/mlca-sim replay out/check_v2v.json --network spec/v2v/gap_repaired.toml --json out/replay_v2v_repaired.json
-rm -f out/sim_v2v.sqlite
+rm -f out/sim_v2v.sqlite out/sim_v2v_off.sqlite out/sim_v2v_perfect.sqlite
 .venv/bin/mlca-sim sweep --controller mlca_t_v2v-c,mlca_t_claim-c --avs 3 --runs 4 --jobs 2 \
     --scenario sim_check/scenarios/v2v_lossy.toml --db out/sim_v2v.sqlite
+for channel in off perfect; do
+    .venv/bin/mlca-sim sweep --controller mlca_t_v2v-c,mlca_t_claim-c --avs 3 --runs 4 --jobs 2 \
+        --scenario "sim_check/scenarios/v2v_$channel.toml" --db "out/sim_v2v_$channel.sqlite"
+done
+.venv/bin/mlca-sim channels --db off=out/sim_v2v_off.sqlite --db perfect=out/sim_v2v_perfect.sqlite \
+    --db lossy=out/sim_v2v.sqlite --out out/channels
+.venv/bin/mlca-verify evidence spec/v2v/gap_repaired.toml --db out/sim_v2v.sqlite \
+    --replay out/replay_v2v_repaired.json --out out/evidence_v2v
 .venv/bin/mlca-verify evidence spec/mlca_t.toml --db out/sim.sqlite --replay out/replay.json --out out/evidence_t
 echo "main: reports in out/check.json, out/check_v2v.json, out/conform.json, out/tests/, out/sim.sqlite, out/comparison/report.md, out/replay.json," \
-    "out/replay_v2v.json, out/replay_v2v_repaired.json, out/sim_v2v.sqlite," \
-    "out/evidence/ and out/evidence_t/ (open out/evidence/index.html)"
+    "out/replay_v2v.json, out/replay_v2v_repaired.json, out/sim_v2v*.sqlite, out/channels/," \
+    "out/evidence/, out/evidence_t/ and out/evidence_v2v/ (open out/evidence/index.html)"

@@ -1,5 +1,6 @@
 """Write src/mlca_verify/schemas/<report>-<version>.schema.json, the JSON Schemas of the reports, from
-`mlca_verify.report_schemas`: check-3, conform-1, tests-1 and evidence-1, shipped with the package.
+`mlca_verify.report_schemas`: check-3, conform-1, tests-1, evidence-1 and network-evidence-1, shipped with the
+package.
 
 tests/test_report_schemas.py fails when a committed file differs from what the module builds; run
 `.venv/bin/python scripts/report_schemas.py` to rewrite them after changing a report.

@@ -14,4 +14,5 @@ def closed_loop_runs(db: Path, controllers: tuple[str, str]) -> ClosedLoopRuns:
     with ResultsDB.open_for_reading(db) as results:
         summary = results.monitor_summary(controllers)
         fired = results.transition_counts(controllers)
-    return ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations, fired)
+        v2v = results.v2v_totals(controllers)
+    return ClosedLoopRuns(db, summary.runs, summary.failed_runs, summary.monitor_violations, fired, v2v)

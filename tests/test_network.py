@@ -347,7 +347,7 @@ def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
     assert main(["tests", "--out", str(tmp_path / "tests"), str(NETWORKS / "claim_pair.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith(
-        "a network spec: `check`, `gen`, `diagram` and `diff` take it; the other commands take a machine spec"
+        "a network spec: `check`, `gen`, `diagram`, `diff` and `evidence` take it; the other commands take a machine spec"
     ), err
     assert not (tmp_path / "tests").exists()
 

@@ -65,7 +65,8 @@ def test_the_shipped_schemas_are_the_ones_the_module_builds() -> None:
         assert path.read_text(encoding="utf-8") == text, "run .venv/bin/python scripts/report_schemas.py"
     assert sorted(p.name for p in OUT.glob("*.json")) == sorted(p.name for p in built)
     assert sorted(p.name for p in built) == [
-        "check-3.schema.json", "conform-1.schema.json", "evidence-1.schema.json", "tests-1.schema.json",
+        "check-3.schema.json", "conform-1.schema.json", "evidence-1.schema.json", "network-evidence-1.schema.json",
+        "tests-1.schema.json",
     ]  # fmt: skip
     for report in REPORTS:
         schema = report_schema(report)

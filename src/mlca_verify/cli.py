@@ -173,7 +173,7 @@ def _parser() -> argparse.ArgumentParser:
 
 # the reports `schema --report` writes the JSON Schema of (mlca_verify.report_schemas.REPORTS, which a test holds
 # this to; that module is imported when a schema is asked for)
-REPORTS = ("check", "conform", "tests", "evidence")
+REPORTS = ("check", "conform", "tests", "evidence", "network-evidence")
 
 
 def _schema_parser(sub: Any) -> None:
@@ -187,7 +187,7 @@ def _schema_parser(sub: Any) -> None:
         "--report",
         choices=REPORTS,
         help="write the schema of this report instead: check --json, conform --json, the coverage.json of tests, "
-        "or evidence.json",
+        "evidence.json, or the evidence.json of a network",
     )
 
 
@@ -640,7 +640,9 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     if db is not None and not db.is_file():
         raise UsageError.at(db, "results database not found")
     writable_folder(Path(args.out))
-    spec = load_spec(args.spec, confine=not args.allow_outside)
+    spec = load_spec(args.spec, confine=not args.allow_outside, network=True)
+    if spec.network is not None:
+        return _network_evidence(spec, args, db)
     parts = ("proofs", "conformance (Frama-C WP takes up to a minute)")
     extra = (("a test suite", not args.no_tests), ("readings", bool(readings)), ("closed-loop runs", db is not None))
     work = ", ".join((*parts, *(name for name, given in extra if given)))
@@ -652,6 +654,29 @@ def cmd_evidence(args: argparse.Namespace) -> int:
     tests_out = None if args.no_tests else Path(args.out) / "tests"
     ev = collect(spec, readings, Path(args.generated), runs, evidence_now(), replay=replay, tests_out=tests_out)
     for path in write_bundle(ev, Path(args.out)):
+        say(f"wrote {path}")
+    say("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")
+    return EXIT_OK if ev.ok else EXIT_FINDING
+
+
+def _network_evidence(spec: LoadedSpec, args: argparse.Namespace, db: Path | None) -> int:
+    """A network's bundle: its goals, each vehicle's, the channels, each machine's code, the closed loop of that
+    code (--db) and the replays of network counterexamples (--replay)."""
+    from mlca_verify.evidence import now as evidence_now
+    from mlca_verify.evidence import read_closed_loop
+    from mlca_verify.evidence.network import collect_network, machine_specs, write_network_bundle
+
+    if args.readings:
+        raise UsageError("error: --readings is for a machine spec; a network's readings are its machines' own")
+    machines = machine_specs(spec)
+    say(
+        f"collecting evidence for {args.spec}: the network's proofs, {len(machines)} machine(s)' proofs and code",
+        flush=True,
+    )
+    runs = None if db is None else [read_closed_loop(db, m) for m in machines]
+    replay = _replay(Path(args.replay)) if args.replay else None
+    ev = collect_network(spec, Path(args.generated), runs, evidence_now(), replay=replay)
+    for path in write_network_bundle(ev, Path(args.out)):
         say(f"wrote {path}")
     say("every claim supported" if ev.ok else "a claim is not supported: see the argument in index.html")
     return EXIT_OK if ev.ok else EXIT_FINDING

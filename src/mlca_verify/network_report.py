@@ -108,13 +108,13 @@ def network_assumptions(net: Network) -> list[str]:
         fair = f", each at least once in every {net.fairness} steps" if net.fairness else ""
         lines.append(f"schedule: one instance steps at a time (signal ~turn: 0 is {net.instances[0].name}){fair}")
     for ch in net.channels:
-        lines.append(f"{ch.id}: {ch.sender}.{ch.output} reaches {ch.receiver}.{ch.port} {_delivery(ch)}")
+        lines.append(f"{ch.id}: {ch.sender}.{ch.output} reaches {ch.receiver}.{ch.port} {delivery(ch)}")
     for inst in net.instances:
         lines += [f"{inst.name}.{a.id}: {show(Renamer(inst.name, ()).expr(a.expr))}" for a in inst.machine.assumptions]
     return lines
 
 
-def _delivery(ch: Channel) -> str:
+def delivery(ch: Channel) -> str:
     if ch.latest == ch.delay:
         exact = {0: "in the same step (its sender steps first)", 1: "the next step"}
         when = exact.get(ch.delay, f"{ch.delay} steps later")

@@ -15,6 +15,7 @@ from mlca_verify.conformance import CONFORM_SCHEMA
 from mlca_verify.conformance.outcome import CHECKS
 from mlca_verify.evidence.collect import EVIDENCE_SCHEMA, TOOL_VERSIONS
 from mlca_verify.evidence.coverage import TIMINGS
+from mlca_verify.evidence.network import NETWORK_CHECKS, NETWORK_EVIDENCE_SCHEMA
 from mlca_verify.json_types import Json, JsonObject
 from mlca_verify.layout import FILES
 from mlca_verify.logic.results import Engine, Kind
@@ -25,7 +26,13 @@ from mlca_verify.testgen.measure import Coverage
 DRAFT = "https://json-schema.org/draft/2020-12/schema"
 BASE = "https://mlca-verify.invalid/schemas/"
 # each report by its name on the command line (`mlca-verify schema --report NAME`), and its schema string
-REPORTS = {"check": CHECK_SCHEMA, "conform": CONFORM_SCHEMA, "tests": TESTS_SCHEMA, "evidence": EVIDENCE_SCHEMA}
+REPORTS = {
+    "check": CHECK_SCHEMA,
+    "conform": CONFORM_SCHEMA,
+    "tests": TESTS_SCHEMA,
+    "evidence": EVIDENCE_SCHEMA,
+    "network-evidence": NETWORK_EVIDENCE_SCHEMA,
+}
 UP_TO_DATE = "up-to-date"  # the check `conform` always runs first, before CHECKS
 SHA256 = "^[0-9a-f]{64}$"
 UTC_SECOND = r"^[0-9]{4}-[0-9]{2}-[0-9]{2}T[0-9]{2}:[0-9]{2}:[0-9]{2}\+00:00$"  # evidence.now()
@@ -910,9 +917,28 @@ def _physical_safety() -> tuple[JsonObject, JsonObject]:
     return section, replayed
 
 
+def _bundle_head(subject: str, part: JsonObject) -> dict[str, JsonObject]:
+    """What every bundle's evidence.json begins with: when, what of (`subject`), whether it holds, and the tools."""
+    tools: list[Json] = ["mlca-verify", "python", "z3 (Python, proofs of the spec)", *TOOL_VERSIONS]
+    return {
+        "generated_at": _string(
+            "When the bundle was made, in UTC to the second (SOURCE_DATE_EPOCH where set).",
+            format="date-time",
+            pattern=UTC_SECOND,
+        ),
+        subject: part,
+        "ok": _boolean("Whether every claim is supported."),
+        "tools": _typed(
+            "object",
+            "The version of each tool, by name; not installed where missing.",
+            required=tools,
+            additionalProperties={"type": "string"},
+        ),
+    }
+
+
 def evidence_schema() -> JsonObject:
     """The schema of the evidence bundle's `evidence.json` (`mlca-verify evidence SPEC --out DIR`)."""
-    tools: list[Json] = ["mlca-verify", "python", "z3 (Python, proofs of the spec)", *TOOL_VERSIONS]
     physical, replayed = _physical_safety()
     tested = _object(
         {
@@ -927,19 +953,7 @@ def evidence_schema() -> JsonObject:
         "The generated test suite and its coverage, as `tests` writes it but for durations (without --no-tests).",
     )
     properties: dict[str, JsonObject] = {
-        "generated_at": _string(
-            "When the bundle was made, in UTC to the second (SOURCE_DATE_EPOCH where set).",
-            format="date-time",
-            pattern=UTC_SECOND,
-        ),
-        "spec": _spec_part(),
-        "ok": _boolean("Whether every claim is supported."),
-        "tools": _typed(
-            "object",
-            "The version of each tool, by name; not installed where missing.",
-            required=tools,
-            additionalProperties={"type": "string"},
-        ),
+        **_bundle_head("spec", _spec_part()),
         "inputs": _array(_file("An input."), "The specs and templates, with their hashes.", minItems=1),
         "artifacts": _array(_file("A generated file.", FILES), "The generated files, with their hashes."),
         "proofs": _array(_ref("result", "A result."), "Every result of the spec's checks."),
@@ -970,10 +984,148 @@ def evidence_schema() -> JsonObject:
     )
 
 
+# --- evidence.json of a network ------------------------------------------------------------------------------
+
+
+def _network_part() -> JsonObject:
+    instance = _object(
+        {
+            "name": _string("The instance's name."),
+            "spec": _string("Its machine spec, as the network names it."),
+            "machine": _string("Its machine's name."),
+            "cite": _string("The instance's cite."),
+        },
+        "An instance.",
+    )
+    channel = _object(
+        {
+            "id": _string("The channel's id."),
+            "text": _string("What it carries and how, in the words of `check`."),
+            "delay": _count("The fewest steps a message takes."),
+            "max_delay": _count("The most steps a message takes."),
+            "lost": _count("The most messages lost in a row (0: none)."),
+            "cite": _string("The channel's cite."),
+        },
+        "A channel: what every verdict assumes of it.",
+    )
+    return _object(
+        {
+            "path": _string("The network spec file, as given."),
+            "sha256": _string("The SHA-256 of its bytes.", pattern=SHA256),
+            "name": _string("The network's name."),
+            "cite": _string("The network's cite."),
+            "schedule": _enum(("synchronous", "interleaved"), "How the instances step."),
+            "instances": _array(instance, "Its instances.", minItems=1),
+            "channels": _array(channel, "Its channels."),
+        },
+        "The network.",
+    )
+
+
+def _vehicle() -> JsonObject:
+    return _object(
+        {
+            "instances": _strings("The instances that run this machine with these params."),
+            "spec": _string("The machine spec, as the network names it."),
+            "machine": _string("The machine's name."),
+            "params": _map(_string("A value, as a spec writes it."), "Each param's value in these instances."),
+            "proofs": _array(_ref("result", "A result."), "Every result of the machine's checks at these params."),
+        },
+        "A vehicle: the instances that run one machine with the same params, and its verdicts there.",
+    )
+
+
+def _machine_code() -> JsonObject:
+    check = _object(
+        {
+            "name": _enum((UP_TO_DATE, *NETWORK_CHECKS), "The check."),
+            "ok": _boolean("Whether it passed."),
+            "detail": _string("Its outcome, in a line or a few."),
+        },
+        "A check of the machine's generated code.",
+    )
+    return _object(
+        {
+            "spec": _string("The machine spec."),
+            "machine": _string("The machine's name."),
+            "checks": _array(check, "The checks of a network's bundle, up-to-date first."),
+            "files": _array(_file("A generated file.", FILES), "The generated files, with their hashes."),
+        },
+        "A machine's generated code, shared by its instances.",
+    )
+
+
+def _v2v_loop() -> JsonObject:
+    section = _closed_loop()
+    properties = section["properties"]
+    assert isinstance(properties, dict)
+    section["properties"] = {
+        **properties,
+        "status": _enum(
+            ("ok", "failed"), "failed where a run failed, the monitor objected or two AVs moved into one lane."
+        ),
+        "controllers": _string("The machine's controllers whose runs these are (its Python and its C)."),
+        "v2v": _map(
+            _count("A count."), "What the radio carried in these runs (sent, lost, late, duplicated, conflicts)."
+        ),
+    }
+    return section
+
+
+def _scene() -> JsonObject:
+    return _object(
+        {
+            "source": _string("The counterexample: its spec and property."),
+            "lanes": _map(_count("A lane index."), "Each AV's lane."),
+            "controllers": _map(_string("A controller."), "The controller that drove each AV."),
+            "radio": _map(_count("Steps or messages."), "The radio at its worst: lost in a row, and delay."),
+            "moved_s": _map(_seconds("When."), "When each AV changed lane."),
+            "conflicts": _count("Times two AVs began moving into one lane near each other."),
+            "collisions": _array(_strings("The vehicles of a collision."), "SUMO's collisions."),
+            "messages": _map(_count("Messages."), "Messages sent and lost."),
+            "outcome": _enum(("conflict", "none"), "Whether the conflict happened in SUMO."),
+            "expected": _typed(["string", "null"], "What the replay expected; null where it made no guess."),
+            "wanted": _typed(["string", "null"], "What this network's verdicts want; null where they say nothing."),
+            "ok": _typed(["boolean", "null"], "Whether the outcome is the one wanted; null where none is."),
+        },
+        "A replayed scene driven by this network's machines (mlca-sim replay --json), judged.",
+    )
+
+
+def network_evidence_schema() -> JsonObject:
+    """The schema of a network's `evidence.json` (`mlca-verify evidence NETWORK.toml --out DIR`)."""
+    properties: dict[str, JsonObject] = {
+        **_bundle_head("network", _network_part()),
+        "inputs": _array(_file("An input."), "The network spec and its machine specs, with their hashes.", minItems=1),
+        "proofs": _array(_ref("result", "A result."), "Every result of the network's own properties."),
+        "vehicles": _array(_vehicle(), "Each machine at each set of params its instances run with.", minItems=1),
+        "code": _array(_machine_code(), "Each machine's generated code.", minItems=1),
+        "closed_loop": _array(_v2v_loop(), "The closed-loop runs of each machine's code (--db; empty without)."),
+        "replays": {
+            "description": "The replayed scenes of network counterexamples (--replay); null without.",
+            "anyOf": [{"type": "null"}, _array(_scene(), "The scenes driven by these machines.")],
+        },
+        "argument": _array(_argument(), "The argument's nodes, the top goal first.", minItems=1),
+    }
+    return _document(
+        "network-evidence",
+        "What `mlca-verify evidence NETWORK.toml --out DIR` writes as DIR/evidence.json: the network's goals, each "
+        "vehicle's, the channels, each machine's code, the closed loop and the replays, and a GSN-style argument.",
+        properties,
+        {**_check_defs(networks=True), "result": _result(timed=False)},
+    )
+
+
 # --- the shipped files ----------------------------------------------------------------------------------------
 
 
-BUILDERS = {"check": check_schema, "conform": conform_schema, "tests": tests_schema, "evidence": evidence_schema}
+BUILDERS = {
+    "check": check_schema,
+    "conform": conform_schema,
+    "tests": tests_schema,
+    "evidence": evidence_schema,
+    "network-evidence": network_evidence_schema,
+}
 
 
 def file_name(report: str) -> str:

@@ -197,7 +197,7 @@ def proof(r: Result) -> dict[str, Any]:
     return found
 
 
-def _files(paths: list[Path]) -> list[dict[str, str]]:
+def files_json(paths: list[Path]) -> list[dict[str, str]]:
     return [{"path": p.as_posix(), "sha256": sha256(p)} for p in sorted(set(paths))]
 
 
@@ -206,19 +206,19 @@ def inputs(ev: Evidence) -> list[dict[str, str]]:
     specs += [Path(c.other.loc.file) for c in ev.spec.machine.comparisons]
     names = [*TEMPLATES.values(), CERTIFIED_TEMPLATE, *SHARED_TEMPLATES]
     templates = [TEMPLATE_DIR / name for name in names]
-    return _files([p for p in specs if p.is_file()]) + [
+    return files_json([p for p in specs if p.is_file()]) + [
         {"path": f"templates/{p.name}", "sha256": sha256(p)} for p in sorted(templates)
     ]
 
 
-def generated_files(ev: Evidence) -> dict[str, Path]:
+def generatedfiles_json(ev: Evidence) -> dict[str, Path]:
     ir = machine_ir(ev.spec, ev.generated)
     layout = Layout(ev.generated, ir.module)
     return {kind: ev.generated / layout.relative(kind) for kind in FILES}
 
 
 def artifacts(ev: Evidence) -> list[dict[str, str]]:
-    return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generated_files(ev).items()]
+    return [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in generatedfiles_json(ev).items()]
 
 
 def closed_loop(runs: ClosedLoopRuns | None, module: str, transitions: tuple[str, ...] = ()) -> dict[str, Any]:
@@ -381,7 +381,7 @@ def _lines(path: Path, needle: str) -> list[int]:
 def traceability(ev: Evidence) -> list[dict[str, Any]]:
     m = ev.spec.machine
     verdicts = {r.prop: r for r in ev.results}
-    files = generated_files(ev)
+    files = generatedfiles_json(ev)
     rows = []
     elements: list[tuple[str, str, str, str, str]] = []  # element, text, cite, property, code needle
     for t in m.transitions:
@@ -475,7 +475,7 @@ def proofs_goal(node: Callable[..., None], results: list[Result]) -> None:
         all(r.ok for r in results),
     )
     for k, r in enumerate(results, 1):
-        text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {_how(r)}"
+        text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {how_decided(r)}"
         node(f"Sn2.{k}", "solution", text, "G2", r.ok, link=f"#proof-{anchor(r.prop)}")
 
 
@@ -557,7 +557,7 @@ def argument(ev: Evidence) -> list[dict[str, Any]]:
     return nodes
 
 
-def _how(r: Result) -> str:
+def how_decided(r: Result) -> str:
     """How a property was decided, in a few words."""
     if r.proof is None:
         return r.detail.splitlines()[0] if r.detail else "decided on the machine's transitions"
@@ -599,7 +599,7 @@ def _parametric_goal(node: Callable[..., None], ev: Evidence) -> None:
     )
     for k, r in enumerate(props, 1):
         proved = r.proof is not None and r.proof.parametric
-        how = _how(r) if proved else "its proof is not parametric (unknown or decided only at the defaults)"
+        how = how_decided(r) if proved else "its proof is not parametric (unknown or decided only at the defaults)"
         text = f"{r.prop} ({r.kind}): {r.verdict}, expected {r.expected}; {how}"
         node(f"Sn3.{k}", "solution", text, "G3", r.ok and proved, link=f"#proof-{anchor(r.prop)}")
 

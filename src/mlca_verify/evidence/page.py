@@ -12,6 +12,7 @@ from mlca_verify.errors import ToolError
 from mlca_verify.tools import run
 
 TEMPLATE = Path(__file__).with_name("page.html.j2")
+NETWORK_TEMPLATE = Path(__file__).with_name("network.html.j2")
 
 
 def inline_svg(dot_text: str) -> str | None:
@@ -30,7 +31,7 @@ def anchor(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_-]", "-", text)
 
 
-def render_page(data: dict[str, Any]) -> str:
+def _environment() -> jinja2.Environment:
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(TEMPLATE.parent)),
         autoescape=True,
@@ -40,9 +41,24 @@ def render_page(data: dict[str, Any]) -> str:
         keep_trailing_newline=True,
     )
     env.filters.update(anchor=anchor)
-    svgs = {m["machine"]: inline_svg(m["dot"]) for m in data["readings"]["machines"]}
+    return env
+
+
+def _children(data: dict[str, Any]) -> dict[str | None, list[dict[str, Any]]]:
     children: dict[str | None, list[dict[str, Any]]] = {}
     for node in data["argument"]:
         children.setdefault(node["parent"], []).append(node)
+    return children
+
+
+def render_network_page(data: dict[str, Any]) -> str:
+    """The page of a network's evidence (evidence.network)."""
+    return _environment().get_template(NETWORK_TEMPLATE.name).render(d=data, children=_children(data))
+
+
+def render_page(data: dict[str, Any]) -> str:
+    env = _environment()
+    svgs = {m["machine"]: inline_svg(m["dot"]) for m in data["readings"]["machines"]}
+    children = _children(data)
     drawn = inline_svg(data["spec"]["dot"])
     return env.get_template(TEMPLATE.name).render(d=data, svgs=svgs, drawn=drawn, children=children)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -154,7 +155,48 @@ def check_replay(doc: object, where: str) -> dict[str, Any]:
     points = doc.get("points")
     if not isinstance(points, list):
         raise ValueError(f"{where}: `points` must be a list")
-    return {"points": [_checked_point(point, f"{where}: points[{k}]") for k, point in enumerate(points)]}
+    scenes = doc.get("networks", [])
+    if not isinstance(scenes, list):
+        raise ValueError(f"{where}: `networks` must be a list")
+    return {
+        "points": [_checked_point(point, f"{where}: points[{k}]") for k, point in enumerate(points)],
+        "networks": [_checked_scene(scene, f"{where}: networks[{k}]") for k, scene in enumerate(scenes)],
+    }
+
+
+def _names_to(values: object, kind: Callable[[object], bool]) -> bool:
+    return isinstance(values, dict) and all(isinstance(k, str) and kind(v) for k, v in values.items())
+
+
+def _count(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _checked_scene(scene: object, at: str) -> dict[str, Any]:
+    """A replayed network scene, rebuilt from what it must hold: its outcome is a conflict where two AVs moved into
+    one lane or SUMO saw a collision, and none otherwise, whatever the file says."""
+    if not isinstance(scene, dict) or not isinstance(scene.get("source"), str):
+        raise ValueError(f"{at} is not a replayed network scene (no source)")
+    shapes: dict[str, Callable[[object], bool]] = {
+        "controllers": lambda v: _names_to(v, lambda x: isinstance(x, str)),
+        "lanes": lambda v: _names_to(v, _count),
+        "radio": lambda v: _names_to(v, _count),
+        "moved_s": lambda v: _names_to(v, _number),
+        "messages": lambda v: _names_to(v, _count),
+        "conflicts": _count,
+        "collisions": lambda v: (
+            isinstance(v, list) and all(isinstance(c, list) and all(isinstance(x, str) for x in c) for c in v)
+        ),
+    }
+    for key, shape in shapes.items():
+        if not shape(scene.get(key)):
+            raise ValueError(f"{at}.{key} is missing or not of its shape")
+    if scene.get("expected") not in (None, "conflict", "none"):
+        raise ValueError(f'{at}.expected must be "conflict", "none" or null')
+    outcome = "conflict" if scene["conflicts"] or scene["collisions"] else "none"
+    if scene.get("outcome") != outcome:
+        raise ValueError(f"{at}.outcome is {scene.get('outcome')!r}, but its conflicts and collisions say {outcome!r}")
+    return {**{k: scene[k] for k in ("source", *shapes)}, "outcome": outcome, "expected": scene["expected"]}
 
 
 def _checked_point(point: object, at: str) -> dict[str, Any]:

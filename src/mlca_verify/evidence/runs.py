@@ -27,6 +27,7 @@ class ClosedLoopRuns:
     failed_runs: int
     monitor_violations: int
     transitions: dict[str, int] = field(default_factory=dict)  # times each transition fired (schema 3 and on)
+    v2v: dict[str, int] = field(default_factory=dict)  # what the radio carried in those runs (schema 4 and on)
 
 
 class ClosedLoopReader(Protocol):
