@@ -444,6 +444,12 @@ def _default_gen_specs() -> list[str]:
     return _default_specs() + sorted(str(p) for p in Path("spec").glob("*/*.toml") if names_a_network(p))
 
 
+def _loaded_network(path: str) -> LoadedSpec | None:
+    """The network spec at `path` (its message frames are generated), or None for a machine spec."""
+    loaded = load_spec(path, compare=False, network=True)
+    return loaded if loaded.network is not None else None
+
+
 def _machines_to_generate(paths: list[str]) -> list[LoadedSpec]:
     """The machine specs `gen` generates for `paths`: each machine spec, and for a network spec each of its
     instances' machine specs, once (instances share their machine's code, each with a context of its own)."""
@@ -471,12 +477,14 @@ def writable_folder(folder: Path) -> None:
 
 
 def cmd_gen(args: argparse.Namespace) -> int:
-    from mlca_verify.codegen import drift, foreign, generate, write
+    from mlca_verify.codegen import drift, foreign, generate, generate_frames, write
 
     out = Path(args.out)
     files: dict[str, str] = {}
-    for spec in _machines_to_generate(args.specs or _default_gen_specs()):
-        new = generate(spec, out)
+    paths = args.specs or _default_gen_specs()
+    networks = [loaded for loaded in map(_loaded_network, paths) if loaded is not None]
+    generated = [(spec, generate(spec, out)) for spec in _machines_to_generate(paths)]
+    for spec, new in generated + [(net, generate_frames(net, out)) for net in networks]:
         if clash := sorted(set(new) & set(files)):
             raise UsageError.at(
                 spec.path,

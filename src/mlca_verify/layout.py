@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 FILES = {"python": "python/{module}_fsm.py", "c-header": "c/{module}_fsm.h", "c-source": "c/{module}_fsm.c"}
-GENERATED_GLOB = "*/*_fsm.*"  # every file any machine's layout holds
+GENERATED_GLOBS = ("*/*_fsm.*", "*/*_frames.*")  # every file a machine's layout or a network's frames hold
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ from pathlib import Path
 import jinja2
 
 from mlca_verify import escape
+from mlca_verify.codegen.frames import FRAME_BYTES, FRAME_TEMPLATES, FRAME_VERSION, FramesIR, frame_files
 from mlca_verify.codegen.ir import MachineIR
 from mlca_verify.errors import CodegenError
 from mlca_verify.layout import Layout
@@ -84,6 +85,13 @@ def render(ir: MachineIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
     """Every generated file of one machine: relative path -> text."""
     layout = Layout(Path(), ir.module)
     return {layout.relative(kind): _render_in(template_dir, name, {"m": ir}) for kind, name in TEMPLATES.items()}
+
+
+def render_frames(f: FramesIR, template_dir: Path = TEMPLATE_DIR) -> dict[str, str]:
+    """Every generated frame file of one network: relative path -> text."""
+    paths = frame_files(f.module)
+    values = {"f": f, "frame_bytes": FRAME_BYTES, "version": FRAME_VERSION}
+    return {paths[kind]: _render_in(template_dir, name, values) for kind, name in FRAME_TEMPLATES.items()}
 
 
 def render_template(name: str, **values: object) -> str:
