@@ -347,7 +347,7 @@ def test_a_network_given_to_a_command_that_takes_a_machine_is_refused(
     assert main(["tests", "--out", str(tmp_path / "tests"), str(NETWORKS / "claim_pair.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith(
-        "a network spec: `check`, `gen`, `diagram`, `diff` and `evidence` take it; the other commands take a machine spec"
+        "a network spec: every command but `tests` takes it; `tests` takes each instance's machine spec"
     ), err
     assert not (tmp_path / "tests").exists()
 
@@ -588,3 +588,16 @@ def test_a_networks_sarif_finding_points_at_the_channels_that_lost_its_messages(
         "channel ab: the message sent after step 1 is lost at step 2",
         "channel ba: the message sent after step 1 is lost at step 2",
     ]
+
+
+def test_conform_of_a_network_checks_each_instances_machine_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """ClaimPair's two instances run one machine: conform of the network is conform of that machine, once."""
+    network = NETWORKS / "claim_pair.toml"
+    assert main(["gen", "--out", str(tmp_path / "g"), str(network)]) == 0
+    args = ["conform", str(network), "--generated", str(tmp_path / "g"), "--only", "compile,exhaustive"]
+    assert main([*args, "--json", str(tmp_path / "c.json")]) == 0
+    (entry,) = json.loads((tmp_path / "c.json").read_text())["specs"]
+    assert entry["path"].endswith("claim_car.toml") and entry["ok"]
+    assert [c["name"] for c in entry["checks"]] == ["up-to-date", "compile", "exhaustive"]

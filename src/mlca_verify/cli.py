@@ -536,7 +536,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
     if unknown:
         raise UsageError(f"error: --only names unknown checks: {', '.join(unknown)} (known: {', '.join(CHECKS)})")
     names = [n for n in CHECKS if n in names]  # a set, run in the order the checks build on each other
-    specs = [load_spec(p, compare=False) for p in args.specs]
+    specs = _machines_to_generate(args.specs)  # a network's: each of its instances' machines, once
     results = []
     for spec in specs:
         say(f"{spec.path} ({spec.machine.name})")

@@ -20,9 +20,7 @@ from mlca_verify.spec.shape import ShapeChecker
 __all__ = ["LoadedSpec", "load_spec", "load_text", "names_a_network"]
 
 MAX_SPEC_BYTES = 2_000_000
-NOT_A_MACHINE = (
-    "a network spec: `check`, `gen`, `diagram`, `diff` and `evidence` take it; the other commands take a machine spec"
-)
+NOT_A_MACHINE = "a network spec: every command but `tests` takes it; `tests` takes each instance's machine spec"
 _TOML_POS = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
 
 
