@@ -51,9 +51,15 @@ def test_a_networks_evidence_holds_its_goals_each_vehicles_its_channels_and_its_
     assert nodes["G2"]["ok"] is True and len([n for n in nodes if n.startswith("Sn2.")]) == len(doc["proofs"])
     (vehicle,) = doc["vehicles"]  # A and B run one machine with the same params: proved once
     assert vehicle["instances"] == ["A", "B"] and all(p["ok"] for p in vehicle["proofs"])
-    (machine,) = doc["code"]
+    machine, frames = doc["code"]
     assert [c["name"] for c in machine["checks"]] == ["up-to-date", "compile", "sequences", "cppcheck", "cortex-m4"]
     assert all(c["ok"] for c in machine["checks"]) and len(machine["files"]) == 3
+    assert frames["machine"] == "ClaimPair" and [c["name"] for c in frames["checks"]] == ["up-to-date"]
+    assert [f["path"].rsplit("/", 1)[1] for f in frames["files"]] == [
+        "claimpair_frames.py",
+        "claimpair_frames.h",
+        "claimpair_frames.c",
+    ]
     assert nodes["G5"]["type"] == nodes["G6"]["type"] == "undeveloped"
     assert doc["closed_loop"] == [] and doc["replays"] is None
     assert "ClaimPair" in page and assumptions[0].split(": ", 1)[1] in page
@@ -64,12 +70,16 @@ def test_a_networks_evidence_fails_where_a_vehicles_code_is_stale(tmp_path: Path
     network = NETWORKS / "claim_pair.toml"
     generated = tmp_path / "generated"
     assert main(["gen", "--out", str(generated), str(network)]) == 0
-    stale = next((generated / "c").glob("*.c"))
-    stale.write_text(stale.read_text() + "\n/* edited */\n")
-    assert main(["evidence", str(network), "--generated", str(generated), "--out", str(tmp_path / "ev")]) == 1
-    doc = json.loads((tmp_path / "ev" / "evidence.json").read_text())
-    nodes = {n["id"]: n for n in doc["argument"]}
-    assert nodes["G4"]["ok"] is False and nodes["G1"]["ok"] is False and nodes["G2"]["ok"] is True
+    for stale in (generated / "c" / "car_fsm.c", generated / "c" / "claimpair_frames.c"):
+        kept = stale.read_text()
+        stale.write_text(kept + "\n/* edited */\n")
+        assert main(["evidence", str(network), "--generated", str(generated), "--out", str(tmp_path / "ev")]) == 1
+        doc = json.loads((tmp_path / "ev" / "evidence.json").read_text())
+        nodes = {n["id"]: n for n in doc["argument"]}
+        assert nodes["G4"]["ok"] is False and nodes["G1"]["ok"] is False and nodes["G2"]["ok"] is True
+        failed = [c["detail"] for entry in doc["code"] for c in entry["checks"] if not c["ok"]]
+        assert len(failed) == 1 and stale.name in failed[0], failed
+        stale.write_text(kept)
 
 
 def test_a_networks_text_reaches_its_page_escaped(tmp_path: Path) -> None:

@@ -12,7 +12,8 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.codegen import machine_ir
+from mlca_verify.codegen import drift, generate_frames, machine_ir
+from mlca_verify.codegen.frames import frame_files, frames_ir
 from mlca_verify.conformance import conform
 from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.evidence.collect import closed_loop, files_json, how_decided, proof, sha256, tool_versions
@@ -32,6 +33,7 @@ NETWORK_EVIDENCE_SCHEMA = "mlca-verify.network-evidence/1"
 # the conformance checks of each machine's code in a network's bundle; WP, the exhaustive comparison and the
 # sanitizers are the machine's own bundle's (`mlca-verify evidence MACHINE.toml`)
 NETWORK_CHECKS = ("compile", "sequences", "cppcheck", "cortex-m4")
+UP_TO_DATE = "up-to-date"
 Node = Callable[..., None]
 
 
@@ -136,7 +138,7 @@ def collect_network(
     code = [
         Code(m, conform(m, generated, list(NETWORK_CHECKS), lambda _: None).outcomes, code_files(m, generated))
         for m in machines
-    ]
+    ] + [frames_code(spec, generated)]
     controllers = {c for m in machines for c in loop_controllers(m)}
     holds = all(r.verdict == "holds" for r in results)
     scenes = None if replay is None else judged_scenes(replay, controllers, holds)
@@ -230,6 +232,23 @@ def channel(net: Network, k: int) -> dict[str, Any]:
     return {"id": ch.id, "text": text, "delay": ch.delay, "max_delay": ch.latest, "lost": ch.lost, "cite": ch.cite}
 
 
+def frames_code(spec: LoadedSpec, generated: Path) -> Code:
+    """The network's message frames (`gen` writes them): whether they are the network's, and their hashes."""
+    files = generate_frames(spec, generated)
+    problems = [f"{d.path} {d.problem}" for d in drift(files, generated) if d.path in files]
+    detail = (
+        "; ".join(problems) + f": run `mlca-verify gen {spec.path}`"
+        if problems
+        else (f"{', '.join(sorted(files))} match the network (sha256 {spec.sha256[:12]}...)")
+    )
+    hashed = [
+        {"kind": kind, "path": (generated / rel).as_posix(), "sha256": sha256(generated / rel)}
+        for kind, rel in frame_files(frames_ir(spec, generated, "").module).items()
+        if (generated / rel).is_file()
+    ]
+    return Code(spec, [CheckOutcome(UP_TO_DATE, not problems, detail)], hashed)
+
+
 def code_files(spec: LoadedSpec, generated: Path) -> list[dict[str, str]]:
     """The generated files of `spec` in `generated`, each with its sha256."""
     layout = Layout(generated, machine_ir(spec, generated).module)
@@ -285,7 +304,9 @@ def _proofs(node: Node, gid: str, text: str, results: list[Result], where: str) 
 
 def _code(node: Node, code: list[Code]) -> None:
     ok = all(o.ok for c in code for o in c.outcomes)
-    node("G4", "goal", f"Each machine's generated code is its spec's, checked ({', '.join(NETWORK_CHECKS)})", "S1", ok)
+    checks = ", ".join(NETWORK_CHECKS)
+    text = f"Each machine's generated code is its spec's, checked ({checks}), and the message frames the network's"
+    node("G4", "goal", text, "S1", ok)
     for k, c in enumerate(code, 1):
         for j, o in enumerate(c.outcomes, 1):
             text = f"{c.spec.machine.name}, {o.name}: {o.detail.splitlines()[0] if o.detail else ''}"
