@@ -82,17 +82,10 @@ def rows(channels: Sequence[Channel]) -> list[Row]:
 
 def _row(label: str, controller: str, avs: int, runs: list[tuple[Any, ...]]) -> Row:
     def column(at: int) -> Triple:
-        return _spread([float(run[at] or 0) for run in runs])
+        return mean_ci([float(run[at] or 0) for run in runs])
 
     messages = {name: column(6 + k) for k, name in enumerate(V2V_COUNTS)}
     return Row(label, controller, avs, len(runs), column(3), column(4), column(5), messages)
-
-
-def _spread(values: list[float]) -> Triple:
-    """The mean and its interval; no resampling where every run has the same value."""
-    if len(set(values)) == 1:
-        return values[0], values[0], values[0]
-    return mean_ci(values)
 
 
 HEADER = (

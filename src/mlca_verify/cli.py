@@ -40,7 +40,7 @@ from mlca_verify.logic.results import Result
 from mlca_verify.logic.solver import DEFAULT_TIMEOUT_MS
 from mlca_verify.model import show
 from mlca_verify.network_report import check_network, network_assumptions, network_json
-from mlca_verify.spec import LoadedSpec, load_spec, names_a_network
+from mlca_verify.spec import LoadedSpec, load_spec, machine_specs, names_a_network
 from mlca_verify.spec.cites import uncited
 from mlca_verify.spec_diff import transition_changes, verdict_changes
 from mlca_verify.testgen import DEPTH
@@ -444,25 +444,13 @@ def _default_gen_specs() -> list[str]:
     return _default_specs() + sorted(str(p) for p in Path("spec").glob("*/*.toml") if names_a_network(p))
 
 
-def _loaded_network(path: str) -> LoadedSpec | None:
-    """The network spec at `path` (its message frames are generated), or None for a machine spec."""
-    loaded = load_spec(path, compare=False, network=True)
-    return loaded if loaded.network is not None else None
-
-
-def _machines_to_generate(paths: list[str]) -> list[LoadedSpec]:
-    """The machine specs `gen` generates for `paths`: each machine spec, and for a network spec each of its
+def _machines_of(loaded: list[LoadedSpec]) -> list[LoadedSpec]:
+    """The machine specs the loaded specs stand for: each machine spec, and for a network spec each of its
     instances' machine specs, once (instances share their machine's code, each with a context of its own)."""
     found: dict[Path, LoadedSpec] = {}
-    for path in paths:
-        loaded = load_spec(path, compare=False, network=True)
-        if loaded.network is None:
-            found.setdefault(Path(path).resolve(), loaded)
-            continue
-        for inst in loaded.network.instances:
-            where = Path(path).parent / inst.spec
-            if where.resolve() not in found:
-                found[where.resolve()] = load_spec(where, compare=False)
+    for spec in loaded:
+        for machine in machine_specs(spec):
+            found.setdefault(Path(machine.path).resolve(), machine)
     return list(found.values())
 
 
@@ -481,10 +469,10 @@ def cmd_gen(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     files: dict[str, str] = {}
-    paths = args.specs or _default_gen_specs()
-    networks = [loaded for loaded in map(_loaded_network, paths) if loaded is not None]
-    generated = [(spec, generate(spec, out)) for spec in _machines_to_generate(paths)]
-    for spec, new in generated + [(net, generate_frames(net, out)) for net in networks]:
+    loaded = [load_spec(p, compare=False, network=True) for p in args.specs or _default_gen_specs()]
+    generated = [(spec, generate(spec, out)) for spec in _machines_of(loaded)]
+    networks = [(net, generate_frames(net, out)) for net in loaded if net.network is not None]
+    for spec, new in generated + networks:
         if clash := sorted(set(new) & set(files)):
             raise UsageError.at(
                 spec.path,
@@ -536,7 +524,7 @@ def cmd_conform(args: argparse.Namespace) -> int:
     if unknown:
         raise UsageError(f"error: --only names unknown checks: {', '.join(unknown)} (known: {', '.join(CHECKS)})")
     names = [n for n in CHECKS if n in names]  # a set, run in the order the checks build on each other
-    specs = _machines_to_generate(args.specs)  # a network's: each of its instances' machines, once
+    specs = _machines_of([load_spec(p, compare=False, network=True) for p in args.specs])  # a network: its machines
     results = []
     for spec in specs:
         say(f"{spec.path} ({spec.machine.name})")
@@ -672,7 +660,7 @@ def _network_evidence(spec: LoadedSpec, args: argparse.Namespace, db: Path | Non
     code (--db) and the replays of network counterexamples (--replay)."""
     from mlca_verify.evidence import now as evidence_now
     from mlca_verify.evidence import read_closed_loop
-    from mlca_verify.evidence.network import collect_network, machine_specs, write_network_bundle
+    from mlca_verify.evidence.network import collect_network, write_network_bundle
 
     if args.readings:
         raise UsageError("error: --readings is for a machine spec; a network's readings are its machines' own")

@@ -77,8 +77,12 @@ def frames_ir(spec: LoadedSpec, out_dir: Path, generator: str) -> FramesIR:
     assert net is not None
     rel = Path(os.path.relpath(Path(spec.path).resolve(), out_dir.resolve().parent)).as_posix()
     channels = tuple(FrameChannel(k, ch, kind_of(net, ch)) for k, ch in enumerate(net.channels))
-    module = re.sub(r"[^a-z0-9_]", "_", net.name.lower())
-    return FramesIR(net.name, module, rel, spec.sha256, generator, net.cite, channels)
+    return FramesIR(net.name, frames_module(net.name), rel, spec.sha256, generator, net.cite, channels)
+
+
+def frames_module(name: str) -> str:
+    """The file-name and C-prefix stem of a network named `name`'s frames."""
+    return re.sub(r"[^a-z0-9_]", "_", name.lower())
 
 
 def frame_files(module: str) -> dict[str, str]:

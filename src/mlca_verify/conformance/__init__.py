@@ -16,7 +16,7 @@ from mlca_verify.json_types import JsonObject
 from mlca_verify.layout import Layout
 from mlca_verify.spec import LoadedSpec
 
-__all__ = ["CHECKS", "CONFORM_SCHEMA", "Conformance", "conform"]
+__all__ = ["CHECKS", "CONFORM_SCHEMA", "Conformance", "conform", "up_to_date"]
 
 CONFORM_SCHEMA = "mlca-verify.conform/1"  # the schema string of `conform --json`
 
@@ -45,14 +45,23 @@ class Conformance:
 
 
 def _up_to_date(spec: LoadedSpec, generated: Path, template_dir: Path | None) -> CheckOutcome:
-    from mlca_verify.codegen import drift, generate
+    from mlca_verify.codegen import generate
 
     files = generate(spec, generated) if template_dir is None else generate(spec, generated, template_dir)
+    return up_to_date(spec, files, generated)
+
+
+def up_to_date(spec: LoadedSpec, files: dict[str, str], generated: Path, what: str = "spec") -> CheckOutcome:
+    """Whether the `files` generated from `spec` (relative path -> text) are those in `generated`."""
+    from mlca_verify.codegen import drift
+
     problems = [d for d in drift(files, generated) if d.path in files]
     if problems:
         listed = "; ".join(f"{d.path} {d.problem}" for d in problems)
         return CheckOutcome("up-to-date", False, f"{listed}: run `mlca-verify gen {spec.path}`")
-    return CheckOutcome("up-to-date", True, f"{', '.join(sorted(files))} match the spec (sha256 {spec.sha256[:12]}...)")
+    return CheckOutcome(
+        "up-to-date", True, f"{', '.join(sorted(files))} match the {what} (sha256 {spec.sha256[:12]}...)"
+    )
 
 
 def _present(

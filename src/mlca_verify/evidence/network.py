@@ -12,9 +12,9 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from mlca_verify.codegen import drift, generate_frames, machine_ir
-from mlca_verify.codegen.frames import frame_files, frames_ir
-from mlca_verify.conformance import conform
+from mlca_verify.codegen import generate_frames, machine_ir
+from mlca_verify.codegen.frames import frame_files, frames_module
+from mlca_verify.conformance import conform, up_to_date
 from mlca_verify.conformance.outcome import CheckOutcome
 from mlca_verify.evidence.collect import closed_loop, files_json, how_decided, proof, sha256, tool_versions
 from mlca_verify.evidence.page import anchor, render_network_page
@@ -27,13 +27,12 @@ from mlca_verify.logic.results import Result
 from mlca_verify.model import Machine, show_number
 from mlca_verify.network import Network
 from mlca_verify.network_report import check_network, delivery, network_assumptions
-from mlca_verify.spec import LoadedSpec, load_spec
+from mlca_verify.spec import LoadedSpec, machine_specs
 
 NETWORK_EVIDENCE_SCHEMA = "mlca-verify.network-evidence/1"
 # the conformance checks of each machine's code in a network's bundle; WP, the exhaustive comparison and the
 # sanitizers are the machine's own bundle's (`mlca-verify evidence MACHINE.toml`)
 NETWORK_CHECKS = ("compile", "sequences", "cppcheck", "cortex-m4")
-UP_TO_DATE = "up-to-date"
 Node = Callable[..., None]
 
 
@@ -86,16 +85,6 @@ class NetworkEvidence:
         loop = all(section["status"] != "failed" for section in self.loop)
         replays = all(scene["ok"] is not False for scene in self.replays or [])
         return proofs and code and loop and replays
-
-
-def machine_specs(spec: LoadedSpec) -> list[LoadedSpec]:
-    """Each machine spec the network's instances run, once, in the order of the instances."""
-    found: dict[Path, LoadedSpec] = {}
-    for inst in spec_network(spec).instances:
-        where = (Path(spec.path).parent / inst.spec).resolve()
-        if where not in found:
-            found[where] = load_spec(Path(spec.path).parent / inst.spec, compare=False)
-    return list(found.values())
 
 
 def spec_network(spec: LoadedSpec) -> Network:
@@ -235,18 +224,9 @@ def channel(net: Network, k: int) -> dict[str, Any]:
 def frames_code(spec: LoadedSpec, generated: Path) -> Code:
     """The network's message frames (`gen` writes them): whether they are the network's, and their hashes."""
     files = generate_frames(spec, generated)
-    problems = [f"{d.path} {d.problem}" for d in drift(files, generated) if d.path in files]
-    detail = (
-        "; ".join(problems) + f": run `mlca-verify gen {spec.path}`"
-        if problems
-        else (f"{', '.join(sorted(files))} match the network (sha256 {spec.sha256[:12]}...)")
-    )
-    hashed = [
-        {"kind": kind, "path": (generated / rel).as_posix(), "sha256": sha256(generated / rel)}
-        for kind, rel in frame_files(frames_ir(spec, generated, "").module).items()
-        if (generated / rel).is_file()
-    ]
-    return Code(spec, [CheckOutcome(UP_TO_DATE, not problems, detail)], hashed)
+    paths = {kind: generated / rel for kind, rel in frame_files(frames_module(spec_network(spec).name)).items()}
+    hashed = [{"kind": kind, "path": p.as_posix(), "sha256": sha256(p)} for kind, p in paths.items() if p.is_file()]
+    return Code(spec, [up_to_date(spec, files, generated, "network")], hashed)
 
 
 def code_files(spec: LoadedSpec, generated: Path) -> list[dict[str, str]]:

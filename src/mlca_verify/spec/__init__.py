@@ -17,7 +17,7 @@ from mlca_verify.spec.meaning import LoadOther, MeaningChecker
 from mlca_verify.spec.network import LoadInstance, NetworkLoader, is_network
 from mlca_verify.spec.shape import ShapeChecker
 
-__all__ = ["LoadedSpec", "load_spec", "load_text", "names_a_network"]
+__all__ = ["LoadedSpec", "load_spec", "load_text", "machine_specs", "names_a_network"]
 
 MAX_SPEC_BYTES = 2_000_000
 NOT_A_MACHINE = "a network spec: every command but `tests` takes it; `tests` takes each instance's machine spec"
@@ -105,6 +105,19 @@ def load_spec(path: str | Path, compare: bool = True, confine: bool = True, netw
 
     machine, found = _load_text(text, str(path), load_other if compare else None, load_instance if network else None)
     return LoadedSpec(str(path), digest, machine, found)
+
+
+def machine_specs(loaded: LoadedSpec) -> list[LoadedSpec]:
+    """The machine specs a loaded spec stands for: itself, or a network's instances' machine specs, each once (the
+    instances share their machine's code), in the order of the instances."""
+    if loaded.network is None:
+        return [loaded]
+    found: dict[Path, LoadedSpec] = {}
+    for inst in loaded.network.instances:
+        where = Path(loaded.path).parent / inst.spec
+        if where.resolve() not in found:
+            found[where.resolve()] = load_spec(where, compare=False)
+    return list(found.values())
 
 
 def _other(path: Path, name: str, loc: Loc, what: str, confine: bool) -> Machine:
