@@ -8,11 +8,13 @@ Run on demand:
 - `.venv/bin/python bench/bench_matrix.py --lateral --runs 10`: the SL2015 sublane model at several lateral
   resolutions on the same seeds: wall time per run and the AV's lane changes at 20 km and collisions, against the
   finest resolution, so that the coarsest resolution whose results agree can be chosen.
-- `.venv/bin/python bench/bench_matrix.py --floor --runs 100 --seeds 2`: the floor of the matrix on this machine:
-  plain SUMO alone (`sim_check.runner.run_plain`: no closed loop) for each controller's SUMO configuration, with 1
-  and 3 AVs, on SEEDS seeds, JOBS runs at once; RUNS such runs of every configuration, shared perfectly by JOBS
-  workers, is the least time any harness could take for the matrix here. `--scenario FILE` runs the matrix and
-  its floor on another scenario.
+- `.venv/bin/python bench/bench_matrix.py --floor --runs 100 --seeds 2 [--write-docs]`: the matrix against its
+  floor on this machine, side by side in one run: every controller's closed loop and plain SUMO alone
+  (`sim_check.runner.run_plain`: no sensing, controller or monitor) under the same SUMO configuration, with 1 and
+  3 AVs, on SEEDS seeds, JOBS runs at once, each run timed whole; RUNS such runs of every configuration, shared
+  perfectly by JOBS workers, give the matrix's time and its floor, the least time any harness could take for it
+  here. `--scenario FILE` runs the matrix and its floor on another scenario; `--write-docs` writes the table into
+  docs/reference/generated-code.md (block `floor`, or `floor-NAME` for the scenario file NAME.toml).
 - `.venv/bin/python bench/bench_matrix.py --from-runs docs/comparison/runs.csv [--write-docs]`: the mean time per
   run of each controller, from the wall times a sweep recorded (its runs.csv), written into
   docs/reference/generated-code.md with `--write-docs` (see figures.py).
@@ -71,36 +73,70 @@ def lateral(runs: int, jobs: int) -> None:
               f"{sum(r.collisions for r in rows):14d}")  # fmt: skip
 
 
-def _plain_run(job: tuple[str, int, int, str]) -> tuple[str, int, float]:
-    controller, avs, seed, scenario_file = job
+Job = tuple[str, str, int, int, str]  # (kind "plain" or "loop", controller, AVs, seed, scenario file)
+
+
+def _timed_run(job: Job) -> tuple[Job, float]:
+    """One run, timed whole (its network and routes built, SUMO run, files read): plain SUMO under the controller's
+    setup, or the controller's closed loop."""
+    kind, controller, avs, seed, scenario_file = job
     scenario = load_scenario(Path(scenario_file) if scenario_file else None).with_avs(avs)
+    start = time.perf_counter()
     with tempfile.TemporaryDirectory() as work:
-        return controller, avs, run_plain(scenario, seed, Path(work), setup=SETUPS[controller])[0]
+        if kind == "plain":
+            run_plain(scenario, seed, Path(work), setup=SETUPS[controller])
+        else:
+            run_once(scenario, controller, seed, Path(work))
+    return job, time.perf_counter() - start
 
 
-def floor(runs: int, jobs: int, seeds: int, scenario_file: str) -> None:
-    """Plain SUMO for each SUMO configuration of the matrix on SEEDS seeds, run on JOBS workers at once (so that the
-    runs share the machine as the matrix's do); RUNS runs of every configuration, perfectly shared, is the floor."""
+def _floor_jobs(seeds: int, scenario_file: str) -> tuple[list[Job], dict[tuple[str, int], str]]:
+    """Every controller's closed loop and, beside the first controller of each SUMO configuration, its plain run,
+    seed by seed, so that both kinds share the machine alike; and the controller whose plain runs stand for each."""
     first: dict[tuple[str, tuple[str, ...], int], str] = {}  # (AV vType, options, AVs) -> its first controller
-    runs_as: dict[tuple[str, int], str] = {}  # (controller, AVs) -> the controller whose plain runs stand for it
-    for controller in PAPER_MATRIX:
-        setup = SETUPS[controller]
-        for avs in (1, 3):
-            runs_as[(controller, avs)] = first.setdefault((setup.av_type, setup.options, avs), controller)
-    work = [(c, avs, seed, scenario_file) for (_t, _o, avs), c in first.items() for seed in range(seeds)]
-    walls: dict[tuple[str, int], list[float]] = defaultdict(list)
+    plain_as: dict[tuple[str, int], str] = {}
+    jobs: list[Job] = []
+    for seed in range(seeds):
+        for controller in PAPER_MATRIX:
+            setup = SETUPS[controller]
+            for avs in (1, 3):
+                key = (setup.av_type, setup.options, avs)
+                if key not in first or first[key] == controller:
+                    jobs.append(("plain", controller, avs, seed, scenario_file))
+                plain_as[(controller, avs)] = first.setdefault(key, controller)
+                jobs.append(("loop", controller, avs, seed, scenario_file))
+    return jobs, plain_as
+
+
+def floor(runs: int, jobs: int, seeds: int, scenario_file: str, write_docs: bool) -> None:
+    """The matrix against its floor, side by side in one run: each controller's closed loop and plain SUMO under
+    its setup, on SEEDS seeds, JOBS runs at once. RUNS runs of every configuration, shared perfectly by JOBS
+    workers, give the matrix's time and its floor, the least time any harness could take for it here."""
+    work, plain_as = _floor_jobs(seeds, scenario_file)
+    walls: dict[tuple[str, str, int], list[float]] = defaultdict(list)
     with mp.get_context("spawn").Pool(jobs) as pool:
-        for controller, avs, wall in pool.imap_unordered(_plain_run, work):
-            walls[(controller, avs)].append(wall)
-    print(f"plain SUMO per configuration of the matrix, mean of seeds 0..{seeds - 1} ({jobs} workers at once):")
-    print(f"  {'controller':12} {'avs':>3} {'s/run':>7}")
-    total = 0.0
-    for (controller, avs), measured_as in runs_as.items():
-        mean = statistics.mean(walls[(measured_as, avs)])
-        total += mean * runs
-        print(f"  {controller:12} {avs:>3} {mean:7.2f}", flush=True)
-    print(f"floor of the full matrix ({len(PAPER_MATRIX)} controllers x 1 and 3 AVs x {runs} seeds) on {jobs} "
-          f"workers: {total / jobs / 60:.1f} min of SUMO alone")  # fmt: skip
+        for (kind, controller, avs, _seed, _f), wall in pool.imap_unordered(_timed_run, work):
+            walls[(kind, controller, avs)].append(wall)
+    loop = {key: statistics.mean(walls[("loop", *key)]) for key in plain_as}
+    plain = {key: statistics.mean(walls[("plain", c, key[1])]) for key, c in plain_as.items()}
+    lines = ["| controller | closed loop, 1 AV | plain SUMO | ratio | closed loop, 3 AVs | plain SUMO | ratio |",
+             "|---|---|---|---|---|---|---|"]  # fmt: skip
+    for controller in PAPER_MATRIX:
+        pairs = [(loop[controller, n], plain[controller, n]) for n in (1, 3)]
+        cells = [f"{a:.2f} | {b:.2f} | {a / b:.2f}" for a, b in pairs]
+        lines.append(f"| `{controller}` | {' | '.join(cells)} |")
+    matrix_min, floor_min = (sum(t.values()) * runs / jobs / 60 for t in (loop, plain))
+    scenario = f"`{scenario_file}`" if scenario_file else "the paper's scenario"
+    lines += ["", f"Seconds per run, the mean of seeds 0 to {seeds - 1}, {jobs} runs at once, on {scenario}. "
+              f"For {runs} runs of every configuration on {jobs} workers: the matrix {matrix_min:.1f} minutes, its "
+              f"floor {floor_min:.1f} minutes of plain SUMO, matrix against floor "
+              f"**{matrix_min / floor_min:.2f}**."]  # fmt: skip
+    print("\n".join(lines))
+    if write_docs:
+        name = f"floor-{Path(scenario_file).stem}" if scenario_file else "floor"
+        by = f"bench/bench_matrix.py --floor --runs {runs} --seeds {seeds} --jobs {jobs}"
+        by += f" --scenario {scenario_file}" if scenario_file else ""
+        write_block(name, lines, by + " --write-docs", ROOT / "docs" / "reference" / "generated-code.md")
 
 
 def matrix(runs: int, jobs: int, db: Path, scenario_file: str) -> None:
@@ -173,12 +209,16 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=2, help="seeds per configuration for --floor")
     parser.add_argument("--scenario", default="", help="scenario file of the matrix and its floor (default: paper)")
     parser.add_argument("--from-runs", type=Path, metavar="CSV", help="the mean time per run from a sweep's runs.csv")
-    parser.add_argument("--write-docs", action="store_true", help="with --from-runs: write the table into its page")
+    parser.add_argument(
+        "--write-docs",
+        action="store_true",
+        help="with --from-runs or --floor: write the table into its page",
+    )
     args = parser.parse_args()
     if args.from_runs:
         from_runs(args.from_runs, args.write_docs)
     elif args.floor:
-        floor(args.runs, args.jobs, args.seeds, args.scenario)
+        floor(args.runs, args.jobs, args.seeds, args.scenario, args.write_docs)
     elif args.lateral:
         lateral(args.runs, args.jobs)
     else:

@@ -30,12 +30,15 @@ def test_every_block_is_stamped_by_the_benchmark_that_writes_it() -> None:
     assert {name for _, name, _ in blocks} >= {
         "mlca-t", "corpus", "mlca", "wp-size", "wp-boolean",
         "check-shipped", "check-sharing", "check-corpora", "check-growth", "check-data", "matrix", "formats",
+        "floor", "floor-exit",
     }  # fmt: skip
     for page, name, body in blocks:
         stamp = STAMP.search(body)
         assert stamp is not None, f"{page.name}: block {name} was not written by a benchmark"
         source = (ROOT / stamp["bench"]).read_text(encoding="utf-8")
         written = re.search(rf'write_block\(\s*"{re.escape(name)}"', source)
+        by_scenario = re.search(r'name = f"floor-\{.*\bwrite_block\(name', source, re.DOTALL)  # floor-NAME
+        written = written or (name.startswith("floor") and by_scenario)
         assert written or f'DOCS["{name}"]' in source or f'DOCS.setdefault("{name}"' in source
 
 
@@ -108,7 +111,21 @@ def _formats(body: str, data: Rows) -> int:
     return len(data)
 
 
+def _floor(body: str, data: Rows) -> int:
+    """Each ratio is its row's closed loop over plain SUMO, and the matrix against its floor is the sums' quotient."""
+    loop = plain = 0.0
+    for cells in data:
+        for a, b, ratio in (cells[1:4], cells[4:7]):
+            assert abs(_number(a) / _number(b) - _number(ratio)) < 0.006 + 0.005 * 2 / _number(b)
+            loop, plain = loop + _number(a), plain + _number(b)
+    (quoted,) = [float(q) for q in BOLD.findall(body)]
+    assert abs(quoted - loop / plain) < 0.006
+    return len(data)
+
+
 CHECKS = {
+    "floor": _floor,
+    "floor-exit": _floor,
     "formats": _formats,
     "corpus": _corpus,
     "mlca-t": _mlca_t,
