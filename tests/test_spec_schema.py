@@ -17,10 +17,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mlca_verify.cli import main
-from mlca_verify.errors import SpecError
+from mlca_verify.errors import Loc, SpecError
+from mlca_verify.model import Machine
 from mlca_verify.spec import load_text
 from mlca_verify.spec.locate import Locator
 from mlca_verify.spec.names import MAX_ELEMENTS
+from mlca_verify.spec.network import MAX_INSTANCES, NetworkLoader, is_network
 from mlca_verify.spec.schema import SCHEMA_NAME, schema_text, spec_schema
 from mlca_verify.spec.shape import ShapeChecker
 from tests.conftest import ROOT
@@ -43,9 +45,17 @@ def _strict_types() -> jsonschema.TypeChecker:
 VALIDATOR = jsonschema.validators.extend(jsonschema.Draft7Validator, type_checker=_strict_types())(spec_schema())
 
 
+def _no_instance(path: str, loc: Loc) -> Machine:
+    raise AssertionError("the shape stage loads no instance")
+
+
 def shape_ok(doc: dict[str, Any]) -> bool:
+    """The loader's first stage accepts the document: a network's (spec/network.py) or a machine's (shape.py)."""
     try:
-        ShapeChecker(doc, Locator("x.toml", "")).check()
+        if is_network(doc):
+            NetworkLoader(doc, Locator("x.toml", ""), _no_instance).shape()
+        else:
+            ShapeChecker(doc, Locator("x.toml", "")).check()
     except SpecError:
         return False
     return True
@@ -64,9 +74,9 @@ def test_the_command_writes_the_schema(tmp_path: Path, capsys: pytest.CaptureFix
 
 
 def test_every_spec_of_the_repository_is_judged_alike() -> None:
-    """The shipped specs, the corpus, the public models, the tutorial's: the schema accepts every one the shape
-    stage accepts (all but the fixtures made to be refused), and refuses the others."""
-    accepted = 0
+    """The shipped specs (machines and networks), the corpus, the public models, the tutorial's: the schema accepts
+    every one the shape stage accepts (all but the fixtures made to be refused), and refuses the others."""
+    accepted = networks = 0
     for path in SPECS:
         try:
             doc = tomllib.loads(path.read_text(encoding="utf-8"))
@@ -74,7 +84,8 @@ def test_every_spec_of_the_repository_is_judged_alike() -> None:
             continue
         assert VALIDATOR.is_valid(doc) == shape_ok(doc), path
         accepted += VALIDATOR.is_valid(doc)
-    assert accepted >= 50
+        networks += VALIDATOR.is_valid(doc) and is_network(doc)
+    assert accepted >= 50 and networks >= 4
 
 
 def test_the_editor_completes_keys_with_their_meaning() -> None:
@@ -90,10 +101,26 @@ def test_too_many_entries_are_refused_by_both() -> None:
     doc = _documents()[0]
     doc["invariant"] = [{"id": f"i{k}", "expr": "true"} for k in range(MAX_ELEMENTS + 1)]
     assert not shape_ok(doc) and not VALIDATOR.is_valid(doc)
+    net = tomllib.loads((ROOT / "spec" / "v2v" / "gap_repaired.toml").read_text(encoding="utf-8"))
+    net["instances"] |= {f"X{k}": {"spec": "mlca_t_claim.toml"} for k in range(MAX_INSTANCES)}
+    assert not shape_ok(net) and not VALIDATOR.is_valid(net)
+
+
+def test_a_network_and_a_machine_do_not_mix() -> None:
+    """A [network] table makes a network spec, whose tables are its own: a machine's [machine] in it is refused, and
+    so are a network's [[channel]] or [instances] in a machine spec."""
+    net = tomllib.loads((ROOT / "spec" / "v2v" / "gap_repaired.toml").read_text(encoding="utf-8"))
+    machine = tomllib.loads((ROOT / "spec" / "mlca_t.toml").read_text(encoding="utf-8"))
+    assert VALIDATOR.is_valid(net) and VALIDATOR.is_valid(machine)
+    for mixed in ({**net, "machine": machine["machine"]}, {**machine, "channel": net["channel"]}):
+        assert not shape_ok(mixed) and not VALIDATOR.is_valid(mixed)
+    assert not shape_ok({k: v for k, v in net.items() if k != "instances"})
+    assert not VALIDATOR.is_valid({k: v for k, v in net.items() if k != "instances"})
 
 
 def _documents() -> list[dict[str, Any]]:
     names = ("spec/mlca_t.toml", "spec/mlca.toml", "tests/machines/acc_modes_50hz.toml", "docs/tutorial/stairwell.toml")
+    names += ("spec/v2v/gap_repaired.toml", "spec/v2v/gap_in_turn.toml")
     return [tomllib.loads((ROOT / n).read_text(encoding="utf-8")) for n in names]
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from fractions import Fraction
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 from mlca_verify.errors import Loc, SpecError
 from mlca_verify.model import (
@@ -55,6 +55,24 @@ TABLES = {
     "invariant": {"id", "expr", "expect", "doc", "cite"},
     "liveness": {"id", "assume", "goal", "within", "expect", "doc", "cite"},
 }
+REQUIRED = {
+    "network": ("name",),
+    "instances": ("spec",),
+    "channel": ("id", "from", "to"),
+    "invariant": ("id", "expr"),
+    "liveness": ("id", "assume", "goal"),
+}
+INTEGERS = ("delay", "max_delay", "lost", "fairness", "timeout_ms", "within")
+KeyKind = Literal["table", "int", "bool", "str"]
+
+
+def key_kind(key: str) -> KeyKind:
+    """What a key of a network spec's tables holds (the shape stage's rule, which the JSON Schema shares)."""
+    if key == "params":
+        return "table"
+    if key in INTEGERS:
+        return "int"
+    return "bool" if key == "duplicate" else "str"
 
 
 def is_network(doc: Mapping[str, Any]) -> bool:
@@ -99,17 +117,16 @@ class NetworkLoader:
 
     def value(self, path: KeyPath, key: str, value: object) -> None:
         """A key's value has its type: a table of params, an integer, a boolean or a string."""
+        kind = key_kind(key)
         integer = isinstance(value, int) and not isinstance(value, bool)
-        if key == "params" and not isinstance(value, dict):
+        if kind == "table" and not isinstance(value, dict):
             raise self.fail((*path, key), "'params' must be a table of numbers")
-        if key in ("delay", "max_delay", "lost", "fairness", "timeout_ms") and not integer:
-            raise self.fail((*path, key), f"'{key}' must be an integer")
-        if key == "within" and not integer:
-            raise self.fail((*path, key), "'within' must be an integer number of steps")
-        if key == "duplicate" and not isinstance(value, bool):
-            raise self.fail((*path, key), "'duplicate' must be true or false")
-        typed = ("params", "delay", "max_delay", "lost", "fairness", "timeout_ms", "within", "duplicate")
-        if key not in typed and not isinstance(value, str):
+        if kind == "int" and not integer:
+            what = "an integer number of steps" if key == "within" else "an integer"
+            raise self.fail((*path, key), f"'{key}' must be {what}")
+        if kind == "bool" and not isinstance(value, bool):
+            raise self.fail((*path, key), f"'{key}' must be true or false")
+        if kind == "str" and not isinstance(value, str):
             raise self.fail((*path, key), f"'{key}' must be a string")
 
     def table(self, path: KeyPath, body: object, kind: str) -> None:
@@ -119,9 +136,7 @@ class NetworkLoader:
             if key not in TABLES[kind]:
                 raise self.fail((*path, key), f"unknown key '{key[:40]}' (allowed: {', '.join(sorted(TABLES[kind]))})")
             self.value(path, key, value)
-        required = {"network": ("name",), "instances": ("spec",), "channel": ("id", "from", "to")}
-        required |= {"invariant": ("id", "expr"), "liveness": ("id", "assume", "goal")}
-        for key in required[kind]:
+        for key in REQUIRED[kind]:
             if key not in body:
                 raise self.fail(path, f"missing '{key}'")
 

@@ -9,6 +9,7 @@ import json
 from collections.abc import Mapping
 
 from mlca_verify.json_types import Json, JsonObject
+from mlca_verify.spec import network
 from mlca_verify.spec.names import MAX_ELEMENTS
 from mlca_verify.spec.shape import ARRAYS, INPUT, MACHINE, TABLES, Field, FieldKind
 
@@ -95,6 +96,38 @@ _SECTIONS = {
 }
 
 
+# A network spec's tables and keys (spec/network.py), where they mean something of their own.
+_NETWORK_SECTIONS = {
+    "network": "A network of machines: its name and how its instances step.",
+    "instances": "The instances, each a machine spec (by path) with its params overridden.",
+    "channel": "A channel: an output of one instance read by an input or a signal of another.",
+    "invariant": "A property over several instances that must hold after every step.",
+    "liveness": "A response over several instances: whenever assume holds, goal follows.",
+}
+_NETWORK_KEYS = {
+    ("network", "name"): "The network's name (an identifier, as a machine's name).",
+    ("network", "schedule"): "synchronous (every instance steps at once, the default) or interleaved (one at a time).",
+    ("network", "fairness"): "Interleaved only: each instance steps at least once in every this many steps.",
+    ("network", "timeout_ms"): "The solver budget its proofs need (check takes the larger of this and --timeout-ms).",
+    ("instances", "spec"): "The instance's machine spec, a path relative to this file.",
+    ("instances", "params"): "Param overrides: each a param of that machine, within its range.",
+    ("channel", "from"): "The sending end: an instance's output, as A.name.",
+    ("channel", "to"): "The receiving end: an instance's input or signal, as B.name.",
+    ("channel", "delay"): "Steps from sending to reading (0 to 100; default 1; 0: immediate).",
+    ("channel", "max_delay"): "Read from delay to max_delay steps after it was sent.",
+    ("channel", "order"): 'With max_delay: "fifo" (in order) or "any" (reordered).',
+    ("channel", "duplicate"): "fifo with max_delay: a late step may read the message before again (false: nothing).",
+    ("channel", "lost"): "At most this many messages lost in a row (0 to 100; default 0).",
+    ("liveness", "within"): "Steps within which the goal must hold (none: eventually).",
+}
+_NETWORK_KINDS: dict[network.KeyKind, JsonObject] = {
+    "table": {"type": "object"},
+    "int": {"type": "integer"},
+    "bool": {"type": "boolean"},
+    "str": {"type": "string"},
+}
+
+
 def _describe(section: str, key: str) -> str:
     return _SECTION_KEYS.get((section, key)) or _KEYS.get(key, "")
 
@@ -109,8 +142,39 @@ def _item(section: str, fields: Mapping[str, Field]) -> JsonObject:
     return {"type": "object", "properties": properties, "required": required, "additionalProperties": False}
 
 
+def _network_item(section: str) -> JsonObject:
+    """One table of a network spec ([network], an instance, a [[channel]], a property)."""
+    properties: JsonObject = {}
+    for key in sorted(network.TABLES[section]):
+        described = _NETWORK_KEYS.get((section, key)) or _KEYS.get(key, "")
+        kind = _NETWORK_KINDS[network.key_kind(key)]
+        properties[key] = {**kind, **({"description": described} if described else {})}
+    required: list[Json] = list(network.REQUIRED[section])
+    return {"type": "object", "properties": properties, "required": required, "additionalProperties": False}
+
+
+def _network_schema() -> JsonObject:
+    """What a network spec (one with a [network] table) must be, as the shape stage of spec/network.py sees it."""
+    arrays = {"channel": network.MAX_CHANNELS, "invariant": network.MAX_PROPERTIES, "liveness": network.MAX_PROPERTIES}
+    properties: JsonObject = {
+        "network": {**_network_item("network"), "description": _NETWORK_SECTIONS["network"]},
+        "instances": {
+            "type": "object",
+            "additionalProperties": _network_item("instances"),
+            "minProperties": 1,
+            "maxProperties": network.MAX_INSTANCES,
+            "description": _NETWORK_SECTIONS["instances"],
+        },
+    }
+    for name, limit in arrays.items():
+        entry: JsonObject = {"type": "array", "items": _network_item(name), "maxItems": limit}
+        properties[name] = {**entry, "description": _NETWORK_SECTIONS[name]}
+    names: list[Json] = list(network.TABLES)
+    return {"properties": properties, "required": ["network", "instances"], "propertyNames": {"enum": names}}
+
+
 def spec_schema() -> JsonObject:
-    """The JSON Schema of a spec file."""
+    """The JSON Schema of a spec file: a machine, or a network of machines (a spec with a [network] table)."""
     properties: JsonObject = {
         "machine": {**_item("machine", MACHINE), "description": _SECTIONS["machine"]},
         "inputs": {
@@ -130,18 +194,28 @@ def spec_schema() -> JsonObject:
         entry = {"type": "array", "items": _item(name, fields), "maxItems": MAX_ELEMENTS}
         properties[name] = {**entry, "description": _SECTIONS[name]}
     properties["expect"] = {**_KINDS["table-of-str"], "description": _SECTIONS["expect"]}
+    nets = _network_schema()
+    for name in ("network", "instances", "channel"):  # a network's own tables, offered beside a machine's
+        properties[name] = nets["properties"][name]  # type: ignore[index]
     # [inputs] may be left out only by a machine that reads signals or definitions
     inputs_or_signals: list[Json] = [{"required": [k]} for k in ("inputs", "signals", "definitions")]
+    machine: JsonObject = {
+        "required": ["machine"],
+        "anyOf": inputs_or_signals,
+        "not": {"anyOf": [{"required": ["instances"]}, {"required": ["channel"]}]},
+    }
     return {
         "$schema": DRAFT,
         "title": "mlca-verify spec",
         "description": "A state machine for mlca-verify: its inputs, signals, params, variables, definitions, "
-        "outputs, transitions and properties (see docs/reference/spec-schema.md).",
+        "outputs, transitions and properties; or a network of such machines, with its instances and channels "
+        "(see docs/reference/spec-schema.md).",
         "type": "object",
         "properties": properties,
-        "required": ["machine"],
-        "anyOf": inputs_or_signals,
         "additionalProperties": False,
+        "if": {"required": ["network"]},
+        "then": nets,
+        "else": machine,
     }
 
 
