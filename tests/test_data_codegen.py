@@ -188,6 +188,8 @@ def test_embedding_examples_build_and_run(tmp_path: Path) -> None:
     )
     assert "tick 25: MOVING_LEFT  command +1" in loop.stdout
     assert "tick 30: IDLE         command +0" in loop.stdout
+    page = (ROOT / "docs" / "reference" / "generated-code.md").read_text(encoding="utf-8")
+    assert f"```text\n{loop.stdout}```" in page  # the page shows what it prints, whole
 
 
 def _red_then_green(tmp_path: Path, buggy: Path, test_py: Path, test_c: Path) -> None:

@@ -87,6 +87,39 @@ def test_the_spec_language_states_the_loaders_limits() -> None:
     assert "1,000 steps for" not in text and "at most 1,000 steps, and" not in text
 
 
+def test_the_spec_languages_unit_mistake_is_what_check_prints(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The page's `gap.toml` (the TOML block before the `$ mlca-verify check gap.toml` block), checked: exit 2 and
+    the one line the page shows."""
+    from mlca_verify.cli import main
+
+    text = LANGUAGE.read_text(encoding="utf-8")
+    shown = re.search(
+        r"```toml\n(?P<spec>(?:(?!```).)*?)```\n\n```text\n\$ mlca-verify check gap\.toml\n(?P<out>.*?)```", text, re.S
+    )
+    assert shown is not None
+    (tmp_path / "gap.toml").write_text(shown["spec"], encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["check", "gap.toml"]) == 2
+    assert capsys.readouterr().err == shown["out"]
+
+
+def test_the_engines_page_shows_the_certificate_check_gives(tmp_path: Path) -> None:
+    """The certificate of MLCA-T's `deferral` on docs/explanation/engines.md is the one `check --json` reports."""
+    import json
+
+    from mlca_verify.cli import main
+
+    out = tmp_path / "check.json"
+    assert main(["check", str(ROOT / "spec" / "mlca_t.toml"), "--only", "deferral", "--quiet", "--json", str(out)]) == 0
+    found = re.search(r'"certificate": "((?:[^"\\]|\\.)*)"', out.read_text(encoding="utf-8"))
+    assert found is not None
+    certificate = json.loads(f'"{found[1]}"')
+    page = (ROOT / "docs" / "explanation" / "engines.md").read_text(encoding="utf-8")
+    assert f"```text\n{certificate}\n```" in page
+
+
 def test_the_tutorials_spec_excerpts_are_its_files() -> None:
     """Each TOML excerpt the tutorial shows is, line for line, part of the first version of its spec, and the
     fixed version differs from it only in the order of the transitions (and its header comment)."""

@@ -19,6 +19,7 @@ from sim_check.replay import AD_RSS_DEFAULTS, Point, front_speed, horizon, load_
 from tests.bruteforce_data import Point as At
 from tests.bruteforce_data import ev
 from tests.conftest import ROOT
+from tests.page_sessions import run_session, sessions
 
 MLCA_T = ROOT / "spec" / "mlca_t.toml"
 EDGE = ROOT / "docs" / "lemmas" / "replay_rss_edge.toml"
@@ -176,3 +177,9 @@ def test_a_lemma_without_counterexample_or_signals_is_refused(
     assert main(["replay", str(edited)]) == 2
     assert "has no signal v_lead_left" in capsys.readouterr().err
     assert math.isfinite(horizon(load_points(EDGE, None, "right")[0]))
+
+
+def test_the_closed_loop_guide_shows_what_replay_prints(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The guide's session: the old rule's highway counterexample and the edge point, replayed as the page prints."""
+    (session,) = sessions(ROOT / "docs" / "guides" / "closed-loop.md", "mlca-verify check spec/mlca_t.toml")
+    run_session(session, tmp_path, capsys)

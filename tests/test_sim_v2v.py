@@ -29,6 +29,7 @@ from sim_check.radio import V2V, Claim, Moves, Radio, Traffic, heard
 from sim_check.runner import run_once
 from sim_check.scenario import load_scenario
 from tests.conftest import ROOT
+from tests.page_sessions import run_session, sessions
 from tests.sim_helpers import SHORT
 
 AVS = ["av0", "av1", "av2"]
@@ -401,3 +402,14 @@ def test_channels_rows_group_by_controller_and_keep_the_channels_order() -> None
     assert table[0].messages["sent"][0] == 15.0 and table[0].lane_changes[1] < 5.0 < table[0].lane_changes[2]
     assert table[0].ssm_conflicts == (1.0, 1.0, 1.0)
     assert "| b\\|\\*x\\* |" in channels.markdown(table)
+
+
+def test_the_closed_loop_guide_shows_what_a_network_replay_prints(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The guide's two sessions on the first protocol's counterexample: by its own machines, by the repaired
+    controller, and by the repaired network's instances (which reads the first session's check.json)."""
+    guide = ROOT / "docs" / "guides" / "closed-loop.md"
+    (first,) = sessions(guide, "mlca-verify check spec/v2v/gap_delayed.toml")
+    (second,) = sessions(guide, "mlca-sim replay check.json --network")
+    run_session(first + second, tmp_path, capsys)
