@@ -134,6 +134,9 @@ class Violation:
 
 @dataclass
 class RunResult:
+    """One closed-loop run: its key (controller, AVs, seed), whether it finished, SUMO's counts, each AV's metrics,
+    the monitor's violations, the radio's traffic and the hash of its trajectory (what `ResultsDB` stores)."""
+
     controller: str
     avs: int
     seed: int
@@ -152,9 +155,11 @@ class RunResult:
 
     @property
     def monitor_violations(self) -> int:
+        """How many steps the monitor found an invariant failing in."""
         return len(self.violations)
 
     def to_json(self) -> dict[str, Any]:
+        """The run as JSON values, each AV's metrics as its row of the results database."""
         data = asdict(self)
         data["metrics"] = [m.row() for m in self.metrics]
         return data

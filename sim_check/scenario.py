@@ -79,11 +79,15 @@ MAY_BE_ZERO = {"loss", "lost_in_row", "duplicate"}  # a channel that loses or re
 
 @dataclass(frozen=True)
 class Scenario:
+    """A scenario of the closed loop: the road, the traffic on it and the AVs, and the radio between the AVs (the
+    defaults are the paper's, `sim_check/paper.toml`)."""
+
     road: Road = Road()
     traffic: Traffic = Traffic()
     v2v: V2V = field(default_factory=V2V)  # the radio of the controllers that talk to the other AVs (sim_check.radio)
 
     def with_avs(self, avs: int) -> Scenario:
+        """The same scenario with `avs` AVs."""
         return replace(self, traffic=replace(self.traffic, avs=avs))
 
     @property

@@ -3,8 +3,11 @@ running scripts/reference.py fails here."""
 
 from __future__ import annotations
 
+import pytest
+
 from mlca_verify.cli import COMMANDS
 from scripts.reference import OUT, reference
+from tests.conftest import ROOT
 
 
 def test_the_command_reference_is_what_the_parsers_say() -> None:
@@ -26,13 +29,27 @@ def test_the_api_reference_is_what_the_package_says() -> None:
 
     text = api_reference.render()
     assert api_reference.OUT.read_text(encoding="utf-8") == text, "run .venv/bin/python scripts/api_reference.py"
+    import sim_check
+
     for name in mlca_verify.__all__:
         assert f"## `{name}`" in text
+    for name in sim_check.__all__:
+        assert f"## `sim_check.{name}`" in text
     assert api_reference.undocumented() == []
     assert (
         "load_spec(path: str | Path, compare: bool = True, confine: bool = True, network: bool = False) -> LoadedSpec"
         in text
     )
+
+
+def test_the_closed_loops_example_runs(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """The example of `sim_check` that the API reference shows: one run of three AVs in SUMO, stored and read back."""
+    from scripts import api_reference
+
+    monkeypatch.chdir(ROOT)
+    exec(api_reference.sim_check_example(), {})  # the project's own docstring
+    status, stored = capsys.readouterr().out.splitlines()
+    assert status.startswith("done 0 [") and stored == "1"
 
 
 def test_every_public_name_is_what_it_says_on_every_access() -> None:
