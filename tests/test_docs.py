@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import re
+from functools import cache
 from pathlib import Path
 
 import pytest
@@ -75,6 +77,123 @@ def test_the_explained_claims_table_is_the_reports() -> None:
 
     report = claims((COMPARISON / "report.md").read_text(encoding="utf-8"))
     assert report and claims(EXPLAINED.read_text(encoding="utf-8")) == report
+
+
+FINDINGS = ROOT / "docs" / "findings.md"
+F11_HEADER = "| controller | lane changes by 20 km | wish episodes followed | travel time s | changes closer than RSS's distance |"
+F11_CONTROLLERS = {
+    "LC2013": "lc2013",
+    "MLCA": "mlca-c",
+    "MLCA-R": "mlca_r-c",
+    "MLCA-T": "mlca_t-c",
+    "without": "without",
+}
+
+
+@cache
+def _av_rows(comparison: Path) -> tuple[dict[str, str], ...]:
+    """The AV rows (av_metrics.csv) of a committed comparison's finished runs."""
+    with (comparison / "runs.csv").open(encoding="utf-8", newline="") as f:
+        done = {(r["controller"], r["avs"], r["seed"]) for r in csv.DictReader(f) if r["status"] == "done"}
+    with (comparison / "av_metrics.csv").open(encoding="utf-8", newline="") as f:
+        return tuple(r for r in csv.DictReader(f) if (r["controller"], r["avs"], r["seed"]) in done)
+
+
+def _sum(comparison: Path, controller: str, avs: int, column: str) -> float:
+    rows = [r for r in _av_rows(comparison) if r["controller"] == controller and r["avs"] == str(avs)]
+    assert rows, (comparison, controller, avs)
+    return sum(float(r[column]) for r in rows)
+
+
+def _runs(comparison: Path, controller: str, avs: int) -> int:
+    return len({r["seed"] for r in _av_rows(comparison) if r["controller"] == controller and r["avs"] == str(avs)})
+
+
+def _rss(comparison: Path, controller: str, avs: int) -> tuple[int, int]:
+    """The lane changes by 20 km into a gap shorter than RSS's distance, and all of them."""
+    return int(_sum(comparison, controller, avs, "lc_rss_unsafe")), int(_sum(comparison, controller, avs, "lc_20km"))
+
+
+def _f11_row(controller: str) -> list[float | None]:
+    """One AV: lane changes per run by 20 km, wish episodes followed (at once or deferred) in %, travel time s,
+    changes closer than RSS's distance in %; None where the controller has no wish episodes."""
+    runs = _runs(COMPARISON, controller, 1)
+    rows = [r for r in _av_rows(COMPARISON) if r["controller"] == controller and r["avs"] == "1"]
+    followed = None
+    if all(r["wishes"] for r in rows):
+        moved = sum(float(r["wishes_at_once"]) + float(r["wishes_deferred"]) for r in rows)
+        followed = 100 * moved / sum(float(r["wishes"]) for r in rows)
+    unsafe, changes = _rss(COMPARISON, controller, 1)
+    return [changes / runs, followed, _sum(COMPARISON, controller, 1, "travel_time_s") / runs, 100 * unsafe / changes]
+
+
+def _shows(cell: str, value: float | None) -> bool:
+    """`cell` (thousands separated, maybe a percent sign; "-" for none) is `value` rounded to the digits it shows."""
+    if cell == "-":
+        return value is None
+    number = cell.replace(",", "").removesuffix("%")
+    digits = len(number.partition(".")[2])
+    return value is not None and abs(float(number) - value) <= 0.5 * 10**-digits + 1e-9
+
+
+def test_the_findings_f11_table_is_the_committed_rows() -> None:
+    """F11's table of one-AV runs, row by row and cell by cell, is what docs/comparison's committed rows give (the
+    rows `mlca-sim report` writes report.md from), each number rounded as the page shows it."""
+    lines = FINDINGS.read_text(encoding="utf-8").splitlines()
+    start = lines.index(F11_HEADER) + 2
+    table = []
+    for line in lines[start:]:
+        if not line.startswith("|"):
+            break
+        table.append([cell.strip() for cell in line.strip().strip("|").split("|")])
+    assert sorted(row[0].split()[0] for row in table) == sorted(F11_CONTROLLERS)
+    wrong = []
+    for label, *cells in table:
+        expected = _f11_row(F11_CONTROLLERS[label.split()[0]])
+        columns = F11_HEADER.strip("|").split("|")[1:]
+        wrong += [
+            f"{label}, {column.strip()}: page {cell}, rows {value}"
+            for column, cell, value in zip(columns, cells, expected, strict=True)
+            if not _shows(cell, value)
+        ]
+    assert not wrong, "docs/findings.md F11 is stale:\n" + "\n".join(wrong)
+
+
+def test_the_rss_counts_in_the_prose_are_the_committed_rows() -> None:
+    """The changes closer than RSS's distance that F11 and the explanation quote, and MLCA-T's reduction against
+    LC2013, are what the committed rows of docs/comparison (and docs/comparison/exit) give."""
+
+    def flat(path: Path) -> str:
+        return " ".join(path.read_text(encoding="utf-8").split())
+
+    findings, explained = flat(FINDINGS), flat(EXPLAINED)
+    unsafe, changes = _rss(COMPARISON, "mlca_t-c", 3)
+    claim_unsafe, claim_changes = _rss(COMPARISON, "mlca_t_claim-c", 3)
+    one_unsafe, one_changes = _rss(COMPARISON, "mlca_t-c", 1)
+    exit_unsafe, exit_changes = _rss(COMPARISON / "exit", "mlca_t-c", 3)
+    exit_one_unsafe, exit_one_changes = _rss(COMPARISON / "exit", "mlca_t-c", 1)
+    assert one_unsafe == exit_one_unsafe == 0
+    assert f"With three AVs {unsafe} of its {changes:,} changes end closer than RSS's distance" in findings
+    assert f"None of its {one_changes:,} one-AV changes ends closer than RSS's distance; " in explained
+    assert f"with three AVs {unsafe} of {changes:,} do." in explained
+    assert (
+        f"({claim_unsafe} of {claim_changes:,} closer than RSS's distance, against {unsafe} of {changes:,} without"
+        " messages" in explained
+    )
+    assert (
+        f"none of its {exit_one_changes:,} one-AV changes closer than RSS's distance"
+        f" ({exit_unsafe} of {exit_changes:,} with three AVs)" in explained
+    )
+
+    def per_run(controller: str, avs: int, column: str) -> float:
+        return _sum(COMPARISON, controller, avs, column) / _runs(COMPARISON, controller, avs)
+
+    fewer = [100 * (1 - per_run("mlca_t-c", n, "lc_20km") / per_run("lc2013", n, "lc_20km")) for n in (1, 3)]
+    longer = 100 * (per_run("mlca_t-c", 1, "travel_time_s") / per_run("lc2013", 1, "travel_time_s") - 1)
+    assert (
+        f"MLCA-T makes {fewer[0]:.0f}% fewer lane changes than LC2013 ({fewer[1]:.0f}% with three AVs) at"
+        f" {longer:.1f}% more travel time" in findings
+    )
 
 
 def test_the_spec_language_states_the_loaders_limits() -> None:
