@@ -19,8 +19,9 @@ a sweep's results:
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from mlca_verify.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from sim_check.controllers import PAPER_MATRIX
@@ -40,11 +41,7 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module 'sim_check' has no attribute {name!r}")
-    return getattr(importlib.import_module(home), name)
+__getattr__ = lazy_exports("sim_check", _HOMES)
 
 
 __all__ = ["PAPER_MATRIX", "ResultsDB", "RunResult", "Scenario", "load_scenario", "run_once"]

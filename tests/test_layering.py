@@ -16,7 +16,7 @@ from tests.conftest import ROOT
 LAYERS: tuple[frozenset[str], ...] = tuple(
     frozenset(names.split())
     for names in (
-        "escape version words json_types floats",
+        "escape version words json_types floats lazy",
         "errors",
         "files tools model layout",
         "network",

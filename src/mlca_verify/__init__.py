@@ -14,10 +14,10 @@ The public Python API (everything the CLI does, as functions):
 Errors are `MlcaError`s (`SpecError` carries the file, line and column).
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from mlca_verify.errors import CodegenError, MlcaError, SpecError, ToolError, UsageError
+from mlca_verify.lazy import lazy_exports
 from mlca_verify.version import __version__
 
 if TYPE_CHECKING:
@@ -52,11 +52,7 @@ _HOMES = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module 'mlca_verify' has no attribute {name!r}")
-    return getattr(importlib.import_module(home), name)
+__getattr__ = lazy_exports("mlca_verify", _HOMES)
 
 
 __all__ = [

@@ -153,8 +153,9 @@ def _network_item(section: str) -> JsonObject:
     return {"type": "object", "properties": properties, "required": required, "additionalProperties": False}
 
 
-def _network_schema() -> JsonObject:
-    """What a network spec (one with a [network] table) must be, as the shape stage of spec/network.py sees it."""
+def _network_schema() -> tuple[JsonObject, JsonObject]:
+    """What a network spec (one with a [network] table) must be, as the shape stage of spec/network.py sees it,
+    and its tables' schemas by name."""
     arrays = {"channel": network.MAX_CHANNELS, "invariant": network.MAX_PROPERTIES, "liveness": network.MAX_PROPERTIES}
     properties: JsonObject = {
         "network": {**_network_item("network"), "description": _NETWORK_SECTIONS["network"]},
@@ -170,7 +171,9 @@ def _network_schema() -> JsonObject:
         entry: JsonObject = {"type": "array", "items": _network_item(name), "maxItems": limit}
         properties[name] = {**entry, "description": _NETWORK_SECTIONS[name]}
     names: list[Json] = list(network.TABLES)
-    return {"properties": properties, "required": ["network", "instances"], "propertyNames": {"enum": names}}
+    required: list[Json] = ["network", "instances"]
+    whole: JsonObject = {"properties": properties, "required": required, "propertyNames": {"enum": names}}
+    return whole, properties
 
 
 def spec_schema() -> JsonObject:
@@ -194,9 +197,9 @@ def spec_schema() -> JsonObject:
         entry = {"type": "array", "items": _item(name, fields), "maxItems": MAX_ELEMENTS}
         properties[name] = {**entry, "description": _SECTIONS[name]}
     properties["expect"] = {**_KINDS["table-of-str"], "description": _SECTIONS["expect"]}
-    nets = _network_schema()
+    nets, network_tables = _network_schema()
     for name in ("network", "instances", "channel"):  # a network's own tables, offered beside a machine's
-        properties[name] = nets["properties"][name]  # type: ignore[index]
+        properties[name] = network_tables[name]
     # [inputs] may be left out only by a machine that reads signals or definitions
     inputs_or_signals: list[Json] = [{"required": [k]} for k in ("inputs", "signals", "definitions")]
     machine: JsonObject = {
