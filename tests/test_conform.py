@@ -285,3 +285,14 @@ def test_generated_code_of_a_data_machine_calls_no_library(name: str, tmp_path: 
     calls = outcome.data["calls"]
     assert all(c.startswith("__aeabi_d") for c in calls) and bool(calls) == (name == "pump_debounce_1khz")
     assert ("no library call (binary64 through" in outcome.detail) == bool(calls)
+
+
+def test_the_clock_guards_a_goal_at_ten_times_what_its_budget_takes() -> None:
+    """WP's budget of steps decides a goal; the clock only guards against a hung prover, and grows with the budget
+    (the last -wp-steps given wins), so that a loaded machine cannot turn a goal the budget decides into a timeout."""
+    from mlca_verify.conformance.c_tools import SECONDS_PER_MILLION_STEPS, WP_GUARD_S, wp_guard_s
+    from mlca_verify.conformance.generated_code import WP_FLAGS, WP_STEPS
+
+    assert wp_guard_s(()) == WP_GUARD_S == 60
+    assert wp_guard_s(WP_FLAGS) == round(10 * SECONDS_PER_MILLION_STEPS * WP_STEPS / 1e6) > 5 * WP_GUARD_S
+    assert wp_guard_s((*WP_FLAGS, "-wp-steps", "1000")) == WP_GUARD_S

@@ -20,7 +20,7 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.codegen.widths import narrow, output_bounds
 from mlca_verify.conformance import conform
-from mlca_verify.conformance.c_tools import WP
+from mlca_verify.conformance.c_tools import WP, wp_guard_s
 from mlca_verify.conformance.generated_code import WP_FLAGS
 from mlca_verify.errors import SpecError
 from mlca_verify.layout import Layout
@@ -109,7 +109,8 @@ def test_wp_refutes_a_transition_that_fires_in_the_wrong_order(tmp_path: Path) -
     shutil.copy2(GENERATED / "c" / "mlca_t_fsm.h", tmp_path)
     # as conform runs it (its steps), on the behaviours asked about: the swapped one and the two urgent ones
     behaviours = "WAITING__4_wait_left,WAITING__2_urgent_left,WAITING__3_urgent_right"
-    flags = [*WP, *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING", "-wp-bhv", behaviours]
+    guard = ("-wp-timeout", str(wp_guard_s(WP_FLAGS)))
+    flags = [*WP, *guard, *WP_FLAGS, "-wp-par", "2", "-wp-fct", "mlca_t_fired_WAITING", "-wp-bhv", behaviours]
     ran = subprocess.run(
         [*flags, str(tmp_path / "mlca_t_fsm.c")],
         check=False,

@@ -21,23 +21,35 @@ _WP_GOAL = re.compile(r"^\[wp\] \[([^\]]+)\] Goal (\S+) : (\w+)", re.MULTILINE)
 # takes 57,000 steps; the budget is 35 times that (`generated_code.WP_FLAGS` raises it). A goal
 # that cannot be proved spends its whole budget, so the budget is also what a failing proof costs. The clock is
 # only a guard against a prover that hangs (z3 does not count steps in every tactic: on a broken step of a
-# boolean machine it ran until the guard): 60 s, five times what the hardest proved goal takes here.
+# boolean machine it ran until the guard). It grows with the budget, so that a load that slows z3 down cannot
+# turn a goal that the budget decides into a timeout: 10 times what the whole budget takes here (MLCA-T's
+# hardest goal, 13.3 million steps, takes 11 s), and at least 60 s. At 40 million steps a guard of 60 s did not
+# hold: with three other jobs on this 2-core machine, three goals of a V2V machine's step ran into it.
 WP_STEPS = 2_000_000
 WP_GUARD_S = 60
-WP = ("frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-steps", str(WP_STEPS), "-wp-timeout", str(WP_GUARD_S))
+SECONDS_PER_MILLION_STEPS = 11 / 13.3
+WP = ("frama-c", "-wp", "-wp-prover", "z3", "-wp-rte", "-wp-steps", str(WP_STEPS))
 WP_RUN_GUARD_S = 3600
 # What each status of an unproved goal means, in the check's detail.
 WP_STATUS = {
     "Unknown": "not proved within its budget of steps",
     "Stepout": "not proved within its budget of steps",
-    "Timeout": f"no answer within the {WP_GUARD_S} s guard against a hung prover",
+    "Timeout": "no answer within the {guard} s guard against a hung prover",
     "Failed": "the prover failed (an error, or out of memory)",
 }
 
 
+def wp_guard_s(extra: tuple[str, ...]) -> int:
+    """The clock's guard for one goal, from the budget of steps WP runs with (the last one given wins)."""
+    steps = int(extra[len(extra) - 1 - extra[::-1].index("-wp-steps") + 1]) if "-wp-steps" in extra else WP_STEPS
+    return max(WP_GUARD_S, round(10 * SECONDS_PER_MILLION_STEPS * steps / 1_000_000))
+
+
 def wp_file(c_file: Path, build: Path, extra: tuple[str, ...] = ()) -> CheckOutcome:
     """Frama-C WP with RTE on one generated C file: every goal proved, or the ones that are not, listed."""
-    ran = run([*WP, "-wp-par", "2", *extra, str(c_file)], timeout=WP_RUN_GUARD_S, cwd=build)
+    guard = wp_guard_s(extra)
+    command = [*WP, "-wp-timeout", str(guard), "-wp-par", "2", *extra, str(c_file)]
+    ran = run(command, timeout=max(WP_RUN_GUARD_S, 4 * guard), cwd=build)
     summary = _WP_SUMMARY.search(ran.output)
     if summary is None:
         tail = "\n".join(ran.output.strip().splitlines()[-5:])
@@ -45,7 +57,7 @@ def wp_file(c_file: Path, build: Path, extra: tuple[str, ...] = ()) -> CheckOutc
             raise ToolError(f"error: Frama-C WP found no prover; run `why3 config detect` ({tail})")
         return CheckOutcome("frama-c-wp", False, f"Frama-C did not report a proof:\n{tail}")
     proved, total = int(summary.group(1)), int(summary.group(2))
-    unproved = [f"{g} ({WP_STATUS[why]})" for g, why in _WP_BAD.findall(ran.output)]
+    unproved = [f"{g} ({WP_STATUS[why].format(guard=guard)})" for g, why in _WP_BAD.findall(ran.output)]
     listed = sorted({(goal, prover, status) for prover, goal, status in _WP_GOAL.findall(ran.output)})
     goal_list = [{"goal": g, "prover": p, "status": s} for g, p, s in listed]
     data = {"proved": proved, "goals": total, "unproved": unproved, "goal_list": goal_list}
