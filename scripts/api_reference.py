@@ -109,8 +109,9 @@ def _fields(cls: type) -> list[str]:
     return [f"- `{f.name}: {str(f.type).replace(chr(39), '')}`" for f in dataclasses.fields(cls)]
 
 
-def section(name: str, obj: object) -> list[str]:
-    lines = [f"## `{name}`", ""]
+def section(name: str, obj: object, prefix: str = "") -> list[str]:
+    """A name's part of the page: its heading (with its package's `prefix`), its code and its docstring."""
+    lines = [f"## `{prefix}{name}`", ""]
     if inspect.isclass(obj):
         bases = ", ".join(b.__name__ for b in obj.__bases__ if b is not object)
         head = f"class {name}({bases}):" if bases else f"class {name}:"
@@ -125,7 +126,7 @@ def section(name: str, obj: object) -> list[str]:
             function = member.fget if isinstance(member, property) else getattr(member, "__func__", member)
             kind = "property" if isinstance(member, property) else "method"
             signature = "" if kind == "property" else _signature(function)
-            lines += [f"### `{name}.{member_name}{signature}` ({kind})", "", _doc(function), ""]
+            lines += [f"### `{prefix}{name}.{member_name}{signature}` ({kind})", "", _doc(function), ""]
     elif callable(obj):
         lines += [f"```python\ndef {name}{_signature(obj)}: ...\n```", "", _doc(obj), ""]
     else:
@@ -139,7 +140,7 @@ def render() -> str:
         if prefix:
             lines.append(SIM_CHECK.format(example=sim_check_example()))
         for name in sorted(package.__all__, key=str.lower):  # type: ignore[attr-defined]
-            lines += section(prefix + name, getattr(package, name))
+            lines += section(name, getattr(package, name), prefix)
     return "\n".join(line.rstrip() for line in "\n".join(lines).splitlines()).rstrip() + "\n"
 
 
