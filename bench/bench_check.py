@@ -463,6 +463,13 @@ def crossing(reps: int) -> None:
 MACHINES = ROOT / "tests" / "machines"
 
 
+LONG_TIMERS = {  # the corpus machines with the longest timers, and how the docs name them
+    "crossing_10hz": "crossing, 10 Hz",
+    "crossing_100hz": "crossing, 100 Hz",
+    "pump_debounce_1khz": "pump debounce, 1 kHz",
+}
+
+
 def timers(reps: int) -> None:
     """The corpus's long timers, with the explicit-state engine first (as `check` runs) and with the symbolic
     engines alone, side by side; then the growth of check time with a timer's length."""
@@ -470,8 +477,12 @@ def timers(reps: int) -> None:
         "corpus machines                   explicit first (s)  unknown   symbolic alone (s)  unknown"
         "   median per property, explicit first (ms)"
     )
-    for path in sorted(MACHINES.glob("*.toml")):
-        machine = load_spec(path).machine
+    rows = [
+        "| machine | explicit first | unknown | symbolic alone (`Limits(steps=0)`) | unknown |",
+        "|---|---|---|---|---|",
+    ]
+    for stem, label in LONG_TIMERS.items():
+        machine = load_spec(MACHINES / f"{stem}.toml").machine
         found: dict[str, list[Result]] = {}
 
         def first_run(m: Machine = machine, into: dict[str, list[Result]] = found) -> None:
@@ -484,11 +495,13 @@ def timers(reps: int) -> None:
         unknown = {k: sum(r.verdict == "unknown" for r in v) for k, v in found.items()}
         median = statistics.median(r.seconds for r in found["explicit"]) * 1000
         print(
-            f"  {path.stem:30} {first:18.3f}  {unknown['explicit']:7}   {alone:18.3f}  {unknown['symbolic']:7}"
+            f"  {stem:30} {first:18.3f}  {unknown['explicit']:7}   {alone:18.3f}  {unknown['symbolic']:7}"
             f"   {median:10.1f}"
         )
+        rows.append(f"| {label} | {first:.1f} s | {unknown['explicit']} | {alone:.1f} s | {unknown['symbolic']} |")
     print("\ncrossing, minimum green of N steps: whole check_all (s), explicit first")
     text = (MACHINES / "crossing_10hz.toml").read_text()
+    grown = []
     for n in (10, 100, 1000, 10_000):
         one = text.replace('MIN_GREEN = { type = "int", default = 100,', f'MIN_GREEN = {{ type = "int", default = {n},')
         one = one.replace("within = 205", f"within = {n + 105}").replace("within = 120", f"within = {n + 20}")
@@ -502,6 +515,9 @@ def timers(reps: int) -> None:
         unknown = sum(r.verdict == "unknown" for r in results[-1])
         bad = [r.prop for r in results[-1] if not r.ok]
         print(f"  N = {n:6,}  {seconds:8.3f}  unknown {unknown}  not as expected: {', '.join(bad) or 'none'}")
+        grown.append(f"{n:,} steps: {seconds:.1f} s")
+    rows += ["", f"The 10 Hz crossing with a minimum green of {'; '.join(grown)} (a whole `check`, explicit first)."]
+    DOCS["check-timers"] = rows
     print()
 
 
@@ -532,6 +548,14 @@ def resources(reps: int) -> None:
     print(f"  PDR spends it in {pdr_s:.3f} s: {units / pdr_s / 1000:,.0f} units per ms")
     print(f"  BMC of 400 steps answers in {bmc_s:.3f} s (within the budget, or at it)")
     print()
+    DOCS["check-resources"] = [
+        "| query (the 10 Hz crossing's `reach:WALK`) | budget | seconds | units per ms |",
+        "|---|---|---|---|",
+        f"| PDR, which cannot finish | {units:,} units | {pdr_s:.3f} | {units / pdr_s / 1000:,.0f} |",
+        f"| BMC of 400 steps | {units:,} units | {bmc_s:.3f} | - |",
+        "",
+        f"The engine takes {budgets.RESOURCE_PER_MS:,} units for a millisecond of `--timeout-ms` (`RESOURCE_PER_MS`).",
+    ]
 
 
 class Unshared(Unrollings):
@@ -602,13 +626,20 @@ SECTIONS: dict[str, Callable[[argparse.Namespace], None]] = {
     "corpora": lambda a: corpora(a.reps),
     "growth": lambda a: growth(a.quick),
 }
-DOCS: dict[str, list[str]] = {}  # the tables measured, by block of docs/explanation/performance.md (`--write-docs`)
+DOCS: dict[str, list[str]] = {}  # the tables measured, by block of performance.md or PAGES (`--write-docs`)
+
+
+ENGINES = ROOT / "docs" / "explanation" / "engines.md"
+PAGES = {"check-timers": ENGINES, "check-resources": ENGINES}  # the blocks not on performance.md
 
 
 def write_docs(by: str) -> None:
     """Write each table measured into its block (those not measured in this run are left as they are)."""
     for name, lines in DOCS.items():
-        write_block(name, lines, by)
+        if name in PAGES:
+            write_block(name, lines, by, PAGES[name])
+        else:
+            write_block(name, lines, by)
 
 
 KIND2_MEDIAN_S = 0.77  # per model, start-up included, on the FMCAD'08 Lustre set: a quoted figure, not re-measured
