@@ -286,6 +286,12 @@ class MachineIR:
         return any(u.on for u in self.observer_updates)
 
     @property
+    def has_reals(self) -> bool:
+        """Whether the code holds a real anywhere: a signal, a param, a variable, an observer or an output."""
+        fields = (*self.signals, *self.params, *self.variables, *self.observers)
+        return any(f.ctype == self.real for f in fields) or any(o.ctype == self.real for o in self.outputs)
+
+    @property
     def once_fields(self) -> tuple[Definition, ...]:
         """The definitions the step computes once in some mode, in the spec's order: the fields of `d`."""
         wanted = {n for g in self.once for n in g.names}

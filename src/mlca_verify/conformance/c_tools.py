@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 import shutil
+from itertools import pairwise
 from pathlib import Path
 
 from mlca_verify.conformance.outcome import CheckOutcome
@@ -41,7 +42,8 @@ WP_STATUS = {
 
 def wp_guard_s(extra: tuple[str, ...]) -> int:
     """The clock's guard for one goal, from the budget of steps WP runs with (the last one given wins)."""
-    steps = int(extra[len(extra) - 1 - extra[::-1].index("-wp-steps") + 1]) if "-wp-steps" in extra else WP_STEPS
+    given = [int(value) for flag, value in pairwise(extra) if flag == "-wp-steps"]
+    steps = given[-1] if given else WP_STEPS
     return max(WP_GUARD_S, round(10 * SECONDS_PER_MILLION_STEPS * steps / 1_000_000))
 
 

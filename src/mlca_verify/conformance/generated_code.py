@@ -648,9 +648,8 @@ def cross_build(t: Subject) -> CheckOutcome:
     calls = external_calls(obj)
     single = t.ir.reals == "binary32"
     outside = calls if single else library_calls(calls)  # binary32 runs on the FPU: not even a helper is called
-    fields = (*t.ir.signals, *t.ir.params, *t.ir.variables, *t.ir.observers)
-    reals = any(f.ctype == t.ir.real for f in fields) or any(o.ctype == t.ir.real for o in t.ir.outputs)
-    where = "" if not reals else ", binary32 on the single-precision FPU" if single else ", binary64 in software"
+    where = ", binary32 on the single-precision FPU" if single else ", binary64 in software"
+    where = where if t.ir.has_reals else ""
     detail = (
         f"arm-none-eabi-gcc {' '.join(arm_flags(t.ir.reals))}{where}: text {text} B, data {data} B, bss {bss} B; "
         f"stack: {t.ir.module}_step's own frame {step} B, every frame summed {sum(frames.values())} B (a bound on "

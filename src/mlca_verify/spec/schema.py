@@ -6,7 +6,7 @@ with their descriptions. What the later stages check (names, types of expression
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 
 from mlca_verify.json_types import Json, JsonObject
 from mlca_verify.spec import network
@@ -122,9 +122,9 @@ _NETWORK_KEYS = {
 }
 _NETWORK_KINDS: dict[network.KeyKind, JsonObject] = {
     "table": {"type": "object"},
-    "int": {"type": "integer"},
-    "bool": {"type": "boolean"},
-    "str": {"type": "string"},
+    "int": _KINDS["int"],
+    "bool": _KINDS["bool"],
+    "str": _KINDS["str"],
 }
 
 
@@ -132,25 +132,25 @@ def _describe(section: str, key: str) -> str:
     return _SECTION_KEYS.get((section, key)) or _KEYS.get(key, "")
 
 
+def _table(keys: Iterable[tuple[str, JsonObject, str]], required: list[Json]) -> JsonObject:
+    """A table of the spec with exactly these keys, each (name, its kind's schema, its description)."""
+    properties: JsonObject = {key: {**kind, **({"description": text} if text else {})} for key, kind, text in keys}
+    return {"type": "object", "properties": properties, "required": required, "additionalProperties": False}
+
+
 def _item(section: str, fields: Mapping[str, Field]) -> JsonObject:
     """One table of the spec (a state machine's [machine], an input, a [[transition]], ...)."""
-    properties: JsonObject = {}
-    for key, field in fields.items():
-        described = _describe(section, key)
-        properties[key] = {**_KINDS[field.kind], **({"description": described} if described else {})}
-    required: list[Json] = [key for key, field in fields.items() if field.required]
-    return {"type": "object", "properties": properties, "required": required, "additionalProperties": False}
+    keys = [(key, _KINDS[field.kind], _describe(section, key)) for key, field in fields.items()]
+    return _table(keys, [key for key, field in fields.items() if field.required])
 
 
 def _network_item(section: str) -> JsonObject:
     """One table of a network spec ([network], an instance, a [[channel]], a property)."""
-    properties: JsonObject = {}
-    for key in sorted(network.TABLES[section]):
-        described = _NETWORK_KEYS.get((section, key)) or _KEYS.get(key, "")
-        kind = _NETWORK_KINDS[network.key_kind(key)]
-        properties[key] = {**kind, **({"description": described} if described else {})}
-    required: list[Json] = list(network.REQUIRED[section])
-    return {"type": "object", "properties": properties, "required": required, "additionalProperties": False}
+    keys = [
+        (key, _NETWORK_KINDS[network.key_kind(key)], _NETWORK_KEYS.get((section, key)) or _KEYS.get(key, ""))
+        for key in sorted(network.TABLES[section])
+    ]
+    return _table(keys, list(network.REQUIRED[section]))
 
 
 def _network_schema() -> tuple[JsonObject, JsonObject]:
