@@ -401,6 +401,52 @@ def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) ->
     assert "const int fired = mlca_t_fired(c, i, p);" in _c_function(kept["c/mlca_t_fsm.c"], "void mlca_t_step(")
 
 
+PUMP = ROOT / "tests" / "machines" / "pump_debounce_1khz.toml"
+
+
+def test_a_machine_whose_transitions_change_the_mode_alone_is_stepped_directly(tmp_path: Path) -> None:
+    """The pump's counter follows its `every` rule whatever fires: the step makes that update once, before the
+    modes are told apart, and each mode's chain yields the next mode, reading `hot` as computed once. A
+    transition that also resets the counter needs the transition's number again."""
+    files = generate(load_spec(PUMP), tmp_path / "pump")
+    step = _c_function(files["c/pumpdebounce_fsm.c"], "void pumpdebounce_step(")
+    assert "fired" not in step and "pumpdebounce_once(c, i, p, &once);" in step
+    assert step.index("next.count = ") < step.index("(mode == PUMPDEBOUNCE_RUNNING)")
+    assert "next.mode = pumpdebounce_to_RUNNING(c, i, p, d);" in step
+    running = _c_function(files["c/pumpdebounce_fsm.c"], "static pumpdebounce_state_t pumpdebounce_to_RUNNING(")
+    assert "d->hot" in running and "pumpdebounce_def_hot(" not in running
+    text = PUMP.read_text(encoding="utf-8").replace('to = "TRIPPED"\n', 'to = "TRIPPED"\ndo = "count = 0"\n')
+    (tmp_path / "reset.toml").write_text(text, encoding="utf-8")
+    numbered = generate(load_spec(tmp_path / "reset.toml", compare=False), tmp_path / "reset")
+    assert "const int fired = pumpdebounce_fired(c, i, p, d);" in _c_function(
+        numbered["c/pumpdebounce_fsm.c"], "void pumpdebounce_step("
+    )
+
+
+def test_the_c_adapter_of_a_direct_step_with_variables_reports_what_the_python_one_does(tmp_path: Path) -> None:
+    """The pump's direct step computes `hot` once for its chains; the C adapter, which finds the transition by
+    the step's own tests, computes it too. Both answers agree over runs that trip the pump, reset it and feed it
+    invalid samples, and every transition is seen."""
+    spec = load_spec(PUMP)
+    out = tmp_path / "generated"
+    write(generate(spec, out), out)
+    ir = machine_ir(spec, out)
+    layout = Layout(out, ir.module)
+    py = PythonMachine(import_generated(layout.python, "_test_pump_direct"), flag_definitions(ir))
+    c = build_c(layout, ir, tmp_path, "_test_pump_direct_c")
+    py_ctx, c_ctx = py.context(), c.context()
+    rng = random.Random(11)
+    fired = set()
+    for _ in range(3):
+        run = [(False, 100.0)] * 1001 + [(rng.random() < 0.5, rng.choice([20.0, 96.0, math.nan, 151.0]))
+                                         for _ in range(40)] + [(True, 20.0)]  # fmt: skip
+        for values in run:
+            py_answer, c_answer = py.advance(py_ctx, *values), c.advance(c_ctx, *values)
+            assert py_answer == c_answer, values
+            fired.add((py_answer[0] >> FIRED_SHIFT) & FIRED_MASK)
+    assert fired == {1, 2, 3}  # none (numbered 0, plus one), trip and reset_trip
+
+
 def test_a_register_that_reads_the_context_alone_lives_in_the_monitor(tmp_path: Path) -> None:
     """MLCA-T's prev(state in {IDLE, WAITING}) is the mode before the step: the step neither keeps nor writes it
     (nor a first-step flag), and the monitor computes it from the context before the step, in C and in Python. A

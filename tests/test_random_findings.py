@@ -384,3 +384,27 @@ def test_a_side_that_holds_the_other_absorbs_it() -> None:
     assert tidy(BinOp("or", a, BinOp("and", a, b)), types) == a  # cppcheck: redundantCondition
     assert tidy(BinOp("and", BinOp("or", b, a), a), types) == a
     assert tidy(BinOp("or", a, BinOp("and", b, b)), types) == BinOp("or", a, b)
+
+
+def test_a_direct_step_that_keeps_a_variable_restarts_a_mode_that_names_no_state(tmp_path: Path) -> None:
+    """`c` is updated by no transition, so the step is direct; a `from = "*"` transition to the fallback mode,
+    tested before the modes, would leave `c` as it was in a context whose mode names no state, where the restart
+    resets it. The step tests such a transition in each mode when the context keeps a variable."""
+    body = """
+[[transition]]
+id = "stop"
+from = "*"
+to = "A"
+when = "go"
+
+[[transition]]
+id = "on"
+from = "A"
+to = "B"
+when = "big"
+"""
+    path = _spec(tmp_path, '[definitions]\nbig = { expr = "x > 1", if_invalid = false, doc = "d" }\n' + body)
+    step = generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"].split("void r_step(")[1].split("\n}\n")[0]
+    assert "fired" not in step and "if (mode == R_A) {" in step  # direct, the modes told apart first
+    outcomes = _conform(path, ["compile", "exhaustive"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}

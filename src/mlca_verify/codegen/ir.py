@@ -174,9 +174,18 @@ def _trimmed(case: Case) -> Case:
     return replace(case, dropped=code[kept : len(code) - 1 if case.closes else None])
 
 
+def _by_transition(m: Machine) -> bool:
+    """Whether a transition updates a variable to anything but what its `every` rule (or keeping it) gives."""
+    rules = {v.name: v.every or Var(v.name) for v in m.variables}
+    return any(u.expr != rules[u.variable] for t in m.transitions for u in t.updates)
+
+
 def _hoisted(m: Machine, guards: Sequence[Expr]) -> int:
     """How many leading transitions leave every mode for the fallback mode on a condition that is not constant,
-    none repeating or completing the ones before it (a direct step tests them before the modes; see `MachineIR`)."""
+    none repeating or completing the ones before it (a direct step whose context is its mode alone tests them
+    before the modes; see `MachineIR`)."""
+    if any(v.name not in observer_variables(m) for v in m.variables):
+        return 0  # a context that keeps a variable restarts from a mode that names no state, whatever they say
     count = 0
     for t, g in zip(m.transitions, guards, strict=True):
         leading = t.sources is None and t.target == m.fallback_state and not isinstance(g, Const)
@@ -265,11 +274,13 @@ class MachineIR:
     logic_shapes: tuple[SharedShape, ...] = ()  # the shared rules of `logic`
     guards: tuple[Code, ...] = ()  # of each transition, by its number from 1
     rounded: tuple[Rounded, ...] = ()  # the parts that compute on reals, each a function (see `rounded`)
-    # a context that is its mode alone (no variable, no register): each mode's chain yields the next mode itself,
-    # with no number of the transition to look up its updates by, and the step never reads a first-step flag
+    # transitions that change the mode alone (no variable updated by a transition, only by `every`; no register
+    # kept): each mode's chain yields the next mode itself, with no number of the transition to look up updates
+    # by, the `every` updates are made whatever fires, and the step never reads a first-step flag
     direct: bool = False
-    # how many leading `from = "*"` transitions to the fallback mode a direct step tests once, before telling the
-    # modes apart: a context whose mode is not a state restarts in the fallback mode too, so the order is free
+    # how many leading `from = "*"` transitions to the fallback mode a direct step whose context is its mode alone
+    # tests once, before telling the modes apart: a context whose mode is not a state restarts in the fallback mode
+    # too, so the order is free (a variable would be reset by the restart and not by the transition)
     hoisted: int = 0
     ints: str = "int64_t"  # the type every int expression computes in (see `widths`)
     reals: str = "binary64"  # the format every real computes in (see `floats`), and its C type:
@@ -380,12 +391,13 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
                        once=tuple(d.name for d in m.definitions if d.name in once))  # fmt: skip
 
     stored = stored_registers(m, tuple(prevs))
-    direct = not m.variables and not stored
+    direct = not stored and not _by_transition(m)
     hoisted = _hoisted(m, [tidy(t.guard, names.types) for t in m.transitions]) if direct else 0
     cases = tuple(chain(s, k) for k, s in enumerate(m.states))
     if direct:
         cases = tuple(_trimmed(case) for case in cases)
-    once = {} if direct else _once_sets(m, cases, parts, observers)
+    # a hoisted guard runs before the mode is told, so it reads no definition a mode computes once
+    once = {} if hoisted else _once_sets(m, cases, parts, observers)
     cases = tuple(chain(s, k, once[s]) for k, s in enumerate(m.states)) if any(once.values()) else cases
     updates = tuple(
         _update(v, m, numbers, stated, _nothing if v.name in observers else partial(_common, once)) for v in m.variables
