@@ -14,6 +14,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 PERFORMANCE = ROOT / "docs" / "explanation" / "performance.md"
+README = ROOT / "README.md"  # reports some of the figures too, in blocks of the same names
 
 
 def machine() -> str:
@@ -27,12 +28,16 @@ def machine() -> str:
 
 
 def write_block(name: str, table: list[str], by: str, page: Path = PERFORMANCE) -> None:
-    """Replace block `name` of `page` with `table` and a line naming the benchmark `by`, the machine and the date."""
+    """Replace block `name` of `page`, and of the README where it reports the same figures, with `table` and a
+    line naming the benchmark `by`, the machine and the date."""
     stamp = f"Written by `{by}` on {machine()}, {datetime.date.today().isoformat()}."
-    text = page.read_text(encoding="utf-8")
-    pattern = re.compile(rf"(<!-- bench:{name} -->\n).*?(<!-- /bench:{name} -->)", re.DOTALL)
-    if not pattern.search(text):
-        raise SystemExit(f"{page}: no block <!-- bench:{name} -->")
     block = "\n".join([*table, "", stamp, ""])
-    page.write_text(pattern.sub(lambda m: m.group(1) + block + m.group(2), text), encoding="utf-8")
-    print(f"wrote the block {name} of {page.relative_to(ROOT)}")
+    pattern = re.compile(rf"(<!-- bench:{name} -->\n).*?(<!-- /bench:{name} -->)", re.DOTALL)
+    for target in (page, README):
+        text = target.read_text(encoding="utf-8")
+        if not pattern.search(text):
+            if target == page:
+                raise SystemExit(f"{page}: no block <!-- bench:{name} -->")
+            continue
+        target.write_text(pattern.sub(lambda m: m.group(1) + block + m.group(2), text), encoding="utf-8")
+        print(f"wrote the block {name} of {target.relative_to(ROOT)}")

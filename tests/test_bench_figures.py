@@ -13,7 +13,7 @@ from tests.conftest import ROOT
 
 BLOCK = re.compile(r"<!-- bench:(?P<name>[\w-]+) -->\n(?P<body>.*?)<!-- /bench:(?P=name) -->", re.DOTALL)
 STAMP = re.compile(r"^Written by `(?P<bench>bench/\w+\.py)[^`]*` on .+, \d{4}-\d{2}-\d{2}\.$", re.MULTILINE)
-PAGES = sorted((ROOT / "docs").rglob("*.md"))
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 TOLERANCE = 0.002  # the table's figures are rounded to 0.01; the ratio is of the unrounded ones
 
 
@@ -145,3 +145,18 @@ def test_the_ratios_are_the_figures_quotients() -> None:
         if name in CHECKS:
             checked += CHECKS[name](body, data)
     assert checked >= 31
+
+
+def test_the_readme_reports_the_code_figures_of_the_performance_page() -> None:
+    """The README's blocks are the performance page's, written by the same run, and its sentence on the targets
+    says which steps meet them (at most 1.3 for the corpus machines, 1.0 for MLCA-T, on both ratios)."""
+    readme = {name: body for page, name, body in _blocks() if page.name == "README.md"}
+    performance = {name: body for page, name, body in _blocks() if page.name == "performance.md"}
+    assert set(readme) == {"corpus", "mlca-t"} and all(readme[n] == performance[n] for n in readme)
+    corpus_met = all(float(q) <= 1.3 for q in BOLD.findall(readme["corpus"]))
+    mlca_t_met = all(float(q) <= 1.0 for q in BOLD.findall(readme["mlca-t"]))
+    text = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    said = re.search(
+        r"which the pump, the thermostat and the flasher (meet|do not meet) and MLCA-T (does not|does)", text
+    )
+    assert said is not None and (said[1] == "meet") == corpus_met and (said[2] == "does") == mlca_t_met
