@@ -408,3 +408,60 @@ when = "big"
     assert "fired" not in step and "if (mode == R_A) {" in step  # direct, the modes told apart first
     outcomes = _conform(path, ["compile", "exhaustive"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+
+
+COMMON_ONCE = """
+[machine]
+name = "R"
+initial = "A"
+states = ["A", "B"]
+otherwise = "stay"
+
+[inputs]
+go = { doc = "go" }
+
+[params]
+STEP = { type = "int", default = 1, range = [0, 2], doc = "the counter's step" }
+
+[signals]
+x = { type = "int", unit = "1", range = [0, 3], doc = "a sample" }
+
+[definitions]
+k = { expr = "c + STEP", doc = "the counter moved on" }
+low = { expr = "x < 1", if_invalid = false, doc = "a low sample" }
+
+[variables]
+c = { type = "int", initial = 0, range = [0, 5], every = "min(k + 1, 5)", doc = "a counter" }
+
+[[transition]]
+id = "up"
+from = "A"
+to = "B"
+when = "low and k > 4"
+
+[[transition]]
+id = "again"
+from = "A"
+to = "B"
+when = "low or go"
+
+[[transition]]
+id = "down"
+from = "B"
+to = "A"
+when = "k > 3"
+"""
+
+
+@pytest.mark.slow
+def test_a_definition_every_mode_computes_once_is_computed_whatever_the_mode(tmp_path: Path) -> None:
+    """Both modes compute `k` once, A also `low`: `k` is computed whatever the mode, so the direct step's
+    `every` update, made before it knows whether the mode is a state, reads a `k` WP knows (it found `k + 1`
+    overflowing when `k` was computed mode by mode). `go` is read only when `low` is false, which the boundary
+    steps reach with their bools 0xFF: the sanitizers see it (a step from each mode on zero samples did not)."""
+    path = tmp_path / "r.toml"
+    path.write_text(COMMON_ONCE, encoding="utf-8")
+    once = generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"].split("static void r_once(")[1].split("\n}\n")[0]
+    assert once.index("d->k = r_def_k(c, i, p);") < once.index("if ((c->mode == R_A)) {")
+    outcomes = _conform(path, ["compile", "exhaustive", "frama-c-wp", "sanitizers"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}

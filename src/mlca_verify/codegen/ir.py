@@ -547,15 +547,15 @@ def _once_groups(
     states: Sequence[str], once: Mapping[str, frozenset[str]], order: Sequence[str]
 ) -> tuple[OnceGroup, ...]:
     """The modes that compute the same definitions once, grouped, in the order of the states (the names in the
-    spec's order)."""
-    sets = sorted({once[s] for s in states if once.get(s)}, key=lambda names: min(
-        states.index(s) for s in states if once.get(s) == names))  # fmt: skip
-    return tuple(
-        OnceGroup(
-            tuple(s for s in states if once[s] == names),
-            tuple(n for n in order if n in names),
-            all(once[s] == names for s in states),
-        )
+    spec's order). Those every mode computes come first, as one group computed whatever the mode: an `every`
+    update reads them, and a direct step makes it before it knows whether the mode is a state."""
+    common = frozenset.intersection(*(once.get(s, frozenset()) for s in states)) if states else frozenset()
+    rest = {s: once.get(s, frozenset()) - common for s in states}
+    sets = sorted({rest[s] for s in states if rest[s]}, key=lambda names: min(
+        states.index(s) for s in states if rest[s] == names))  # fmt: skip
+    first = (OnceGroup(tuple(states), tuple(n for n in order if n in common), True),) if common else ()
+    return first + tuple(
+        OnceGroup(tuple(s for s in states if rest[s] == names), tuple(n for n in order if n in names), False)
         for names in sets
     )
 
