@@ -465,3 +465,52 @@ def test_a_definition_every_mode_computes_once_is_computed_whatever_the_mode(tmp
     assert once.index("d->k = r_def_k(c, i, p);") < once.index("if ((c->mode == R_A)) {")
     outcomes = _conform(path, ["compile", "exhaustive", "frama-c-wp", "sanitizers"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+
+
+KEEPS_A_CALL = """
+[machine]
+name = "R"
+initial = "S1"
+states = ["S0", "S1"]
+otherwise = "stay"
+
+[inputs]
+A = { doc = "d" }
+
+[params]
+Q = { type = "int", default = 2, range = [1, 3], doc = "d" }
+
+[signals]
+x = { type = "int", unit = "1", range = [0, 3], doc = "d" }
+
+[definitions]
+gap = { expr = "x - c", doc = "d" }
+far = { expr = "gap >= Q", if_invalid = true, doc = "d" }
+
+[variables]
+c = { type = "int", initial = 1, range = [0, 2], doc = "d" }
+
+[[transition]]
+id = "t1"
+from = "*"
+to = "S0"
+when = "not far"
+
+[[transition]]
+id = "t2"
+from = "*"
+to = "S0"
+when = "A"
+"""
+
+
+def test_a_direct_chain_that_must_keep_a_branch_to_its_end_is_numbered(tmp_path: Path) -> None:
+    """In S0, `t1` goes where the chain ends (S0) but calls `far`, so the direct step could not leave it out, and
+    would write `next = R_S0` in an `if` and its `else` (cppcheck: duplicateBranch). Such a machine gets the
+    numbered step, which tells the branches apart."""
+    path = tmp_path / "r.toml"
+    path.write_text(KEEPS_A_CALL, encoding="utf-8")
+    step = generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"].split("void r_step(")[1].split("\n}\n")[0]
+    assert "const int fired = r_fired(c, i, p);" in step
+    outcomes = _conform(path, ["compile", "exhaustive", "cppcheck"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}

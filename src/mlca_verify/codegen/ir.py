@@ -174,6 +174,47 @@ def _trimmed(case: Case) -> Case:
     return replace(case, dropped=code[kept : len(code) - 1 if case.closes else None])
 
 
+Chain = Callable[..., Case]  # a mode's chain: (state, index, hoisted[, once]) -> Case
+Modes = tuple[tuple[Case, ...], dict[str, frozenset[str]]]
+
+
+def _modes(
+    m: Machine, chain: Chain, parts: Sequence[RoundedPart], observers: frozenset[str], *, direct: bool, hoisted: int
+) -> Modes:
+    """Each mode's chain (trimmed in a direct step) and the definitions it computes once."""
+    trim = _trimmed if direct else _as_is
+    cases = tuple(trim(chain(s, k, hoisted)) for k, s in enumerate(m.states))
+    # a hoisted guard runs before the mode is told, so it reads no definition a mode computes once
+    once = {} if hoisted else _once_sets(m, cases, parts, observers)
+    if any(once.values()):
+        cases = tuple(trim(chain(s, k, hoisted, once[s])) for k, s in enumerate(m.states))
+    return cases, once
+
+
+def _step_form(
+    m: Machine, direct: bool, types: Mapping[str, Type], modes: Callable[..., Modes]
+) -> tuple[bool, int, tuple[Case, ...], dict[str, frozenset[str]]]:
+    """Whether the step is direct (`direct` when the spec allows it), how many transitions it hoists, each mode's
+    chain and what it computes once. A direct chain that must keep a branch going where its end goes falls back
+    to the numbered step, which tells those branches apart."""
+    hoisted = _hoisted(m, [tidy(t.guard, types) for t in m.transitions]) if direct else 0
+    cases, once = modes(direct=direct, hoisted=hoisted)
+    if direct and any(_ends_twice(case) for case in cases):
+        return False, 0, *modes(direct=False, hoisted=0)
+    return direct, hoisted, cases, once
+
+
+def _as_is(case: Case) -> Case:
+    return case
+
+
+def _ends_twice(case: Case) -> bool:
+    """Whether a trimmed chain still holds, just before its end, a branch that goes where the end goes (one that
+    calls a function, see `_trimmed`): a direct step would write the same statement in an `if` and its `else`."""
+    body = case.code[:-1] if case.closes else case.code
+    return bool(body) and body[-1].target == case.end
+
+
 def _by_transition(m: Machine) -> bool:
     """Whether a transition updates a variable to anything but what its `every` rule (or keeping it) gives."""
     rules = {v.name: v.every or Var(v.name) for v in m.variables}
@@ -377,7 +418,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     keeps = kept_ranges(m)
     numbers = {t.id: k for k, t in enumerate(m.transitions, 1)}
 
-    def chain(state: str, index: int, once: frozenset[str] = frozenset()) -> Case:
+    def chain(state: str, index: int, hoisted: int, once: frozenset[str] = frozenset()) -> Case:
         """The mode's branches, each guard written without what the earlier guards' being false decides."""
         known: list[Expr] = []
         branches, guards = [], []
@@ -391,14 +432,8 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
                        once=tuple(d.name for d in m.definitions if d.name in once))  # fmt: skip
 
     stored = stored_registers(m, tuple(prevs))
-    direct = not stored and not _by_transition(m)
-    hoisted = _hoisted(m, [tidy(t.guard, names.types) for t in m.transitions]) if direct else 0
-    cases = tuple(chain(s, k) for k, s in enumerate(m.states))
-    if direct:
-        cases = tuple(_trimmed(case) for case in cases)
-    # a hoisted guard runs before the mode is told, so it reads no definition a mode computes once
-    once = {} if hoisted else _once_sets(m, cases, parts, observers)
-    cases = tuple(chain(s, k, once[s]) for k, s in enumerate(m.states)) if any(once.values()) else cases
+    modes = partial(_modes, m, chain, parts, observers)
+    direct, hoisted, cases, once = _step_form(m, not stored and not _by_transition(m), names.types, modes)
     updates = tuple(
         _update(v, m, numbers, stated, _nothing if v.name in observers else partial(_common, once)) for v in m.variables
     )  # the monitor's update of an observer reads no definition computed once (the step's alone)
