@@ -34,6 +34,7 @@ from mlca_verify.loading import (
 )
 from mlca_verify.spec import load_spec
 from mlca_verify.tools import C_FLAGS
+from tests.c_text import c_function
 from tests.conftest import ROOT
 from tests.test_random_bool_findings import SAME_END
 
@@ -369,12 +370,6 @@ def test_prev_of_an_output_is_generated_and_agrees_with_the_spec(tmp_path: Path)
 CONVEYOR = ROOT / "tests" / "fixtures" / "conveyor_stop.toml"
 
 
-def _c_function(source: str, header: str) -> str:
-    """The text of the C function whose definition starts with `header`, to its closing brace."""
-    start = source.index(f"\n{header}")
-    return source[start : source.index("\n}\n", start)]
-
-
 def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) -> None:
     """The conveyor keeps no variable and no prev(): its context is the mode, with no first-step flag; its step
     tests the emergency stop (from every mode to the fallback one) once, before the modes, and writes the next
@@ -383,10 +378,10 @@ def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) ->
     header, source = files["c/conveyor_fsm.h"], files["c/conveyor_fsm.c"]
     context = header[header.index("typedef struct {\n    conveyor_state_t mode;") :]
     assert "bool first;" not in context[: context.index("} conveyor_ctx_t;")]
-    step = _c_function(source, "void conveyor_step(")
+    step = c_function(source, "void conveyor_step(")
     assert step.index("if (i->stop) {") < step.index("(mode == CONVEYOR_HALTED)")
     assert "fired" not in step and "next.mode = conveyor_to_RUNNING(c, i, p);" in step
-    creeping = _c_function(source, "static conveyor_state_t conveyor_to_CREEPING(")
+    creeping = c_function(source, "static conveyor_state_t conveyor_to_CREEPING(")
     assert "i->stop" not in creeping  # the hoisted test is not repeated in the mode's chain
     # its contract states the relation mode by mode (WP's goals then hold one mode each), not through the
     # function over every mode
@@ -398,7 +393,7 @@ def test_a_context_that_is_its_mode_alone_is_stepped_directly(tmp_path: Path) ->
         assert f"conveyor_first_{state}(\\old(*c), *i, *p), *c);" in contract
     assert "conveyor_first(" not in contract and "@ complete behaviors;\n  @ disjoint behaviors;" in contract
     kept = generate(load_spec(SPEC), tmp_path / "generated")
-    assert "const int fired = mlca_t_fired(c, i, p);" in _c_function(kept["c/mlca_t_fsm.c"], "void mlca_t_step(")
+    assert "const int fired = mlca_t_fired(c, i, p);" in c_function(kept["c/mlca_t_fsm.c"], "void mlca_t_step(")
 
 
 PUMP = ROOT / "tests" / "machines" / "pump_debounce_1khz.toml"
@@ -409,16 +404,16 @@ def test_a_machine_whose_transitions_change_the_mode_alone_is_stepped_directly(t
     modes are told apart, and each mode's chain yields the next mode, reading `hot` as computed once. A
     transition that also resets the counter needs the transition's number again."""
     files = generate(load_spec(PUMP), tmp_path / "pump")
-    step = _c_function(files["c/pumpdebounce_fsm.c"], "void pumpdebounce_step(")
+    step = c_function(files["c/pumpdebounce_fsm.c"], "void pumpdebounce_step(")
     assert "fired" not in step and "pumpdebounce_once(c, i, p, &once);" in step
     assert step.index("next.count = ") < step.index("(mode == PUMPDEBOUNCE_RUNNING)")
     assert "next.mode = pumpdebounce_to_RUNNING(c, i, p, d);" in step
-    running = _c_function(files["c/pumpdebounce_fsm.c"], "static pumpdebounce_state_t pumpdebounce_to_RUNNING(")
+    running = c_function(files["c/pumpdebounce_fsm.c"], "static pumpdebounce_state_t pumpdebounce_to_RUNNING(")
     assert "d->hot" in running and "pumpdebounce_def_hot(" not in running
     text = PUMP.read_text(encoding="utf-8").replace('to = "TRIPPED"\n', 'to = "TRIPPED"\ndo = "count = 0"\n')
     (tmp_path / "reset.toml").write_text(text, encoding="utf-8")
     numbered = generate(load_spec(tmp_path / "reset.toml", compare=False), tmp_path / "reset")
-    assert "const int fired = pumpdebounce_fired(c, i, p, d);" in _c_function(
+    assert "const int fired = pumpdebounce_fired(c, i, p, d);" in c_function(
         numbered["c/pumpdebounce_fsm.c"], "void pumpdebounce_step("
     )
 
@@ -455,16 +450,16 @@ def test_a_register_that_reads_the_context_alone_lives_in_the_monitor(tmp_path: 
     header, source = files["c/mlca_t_fsm.h"], files["c/mlca_t_fsm.c"]
     context = header[header.index("typedef struct {\n    mlca_t_state_t mode;") : header.index("} mlca_t_ctx_t;")]
     assert "prev0" not in context and "first" not in context
-    assert "prev0" not in _c_function(source, "void mlca_t_step(") and "prev0" not in _c_function(
+    assert "prev0" not in c_function(source, "void mlca_t_step(") and "prev0" not in c_function(
         source, "void mlca_t_init("
     )
-    assert "const bool prev0 = mlca_t_reg0(before, i, p);" in _c_function(source, "void mlca_t_monitor(")
+    assert "const bool prev0 = mlca_t_reg0(before, i, p);" in c_function(source, "void mlca_t_monitor(")
     assert "prev0 = _reg0(before, i, p)  #" in files["python/mlca_t_fsm.py"]
     kept = generate(load_spec(ROOT / "tests" / "fixtures" / "boolean_terms.toml"), tmp_path / "bt")
     header, source = kept["c/bt_fsm.h"], kept["c/bt_fsm.c"]
     assert "    bool prev0;" in header and "    bool first;" in header
-    assert "next.prev0 = bt_reg0(&next, i, p);" in _c_function(source, "void bt_step(")
-    assert "before->first ? bt_reg0(before, i, p) : before->prev0" in _c_function(source, "void bt_monitor(")
+    assert "next.prev0 = bt_reg0(&next, i, p);" in c_function(source, "void bt_step(")
+    assert "before->first ? bt_reg0(before, i, p) : before->prev0" in c_function(source, "void bt_monitor(")
 
 
 @pytest.mark.slow
@@ -599,9 +594,9 @@ def test_an_observer_lives_in_the_monitor_not_in_the_step(tmp_path: Path) -> Non
     assert "waited" in context and "need_age" not in context
     assert "int32_t need_age;" in header.split("} mlca_t_observers_t;")[0].rsplit("typedef struct {", 1)[1]
     assert "mlca_t_observers_t *g,\n    bool failing[MLCA_T_FAILING]);" in header
-    step = _c_function(source, "void mlca_t_step(")
+    step = c_function(source, "void mlca_t_step(")
     assert "need_age" not in step
-    monitor = _c_function(source, "void mlca_t_monitor(")
+    monitor = c_function(source, "void mlca_t_monitor(")
     assert "mlca_t_observe(before, i, p, g, " in monitor and "(g->need_age > p->T_MIN)" in monitor
     module = import_generated(GENERATED / "python" / "mlca_t_fsm.py", "mlca_t_observed")
     ctx, seen = module.Context(), module.Observers()

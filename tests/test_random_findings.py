@@ -13,13 +13,14 @@ from pathlib import Path
 import pytest
 
 from mlca_verify.cli import main
-from mlca_verify.codegen import generate, write
+from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.conformance import conform
 from mlca_verify.conformance.outcome import CheckOutcome
-from mlca_verify.model import Arith, Cmp, Num, Var
+from mlca_verify.model import Arith, Call, Cmp, Num, Var
 from mlca_verify.spec import load_spec
-from mlca_verify.testgen.explain import element_of, mode_of
+from mlca_verify.testgen.explain import element_of, mode_of, others_than_chain, saturation
 from mlca_verify.testgen.objectives import decisions
+from tests.c_text import c_function
 
 HEAD = """
 [machine]
@@ -149,6 +150,48 @@ def test_gaps_are_traced_to_the_transition_whose_branch_holds_them() -> None:
     assert mode_of(["static int r_fired_GO(const r_ctx_t *c)", "{", "    int fired = 0;"], 3, ("GO",)) == "GO"
 
 
+def test_a_gap_in_the_c_dispatch_to_a_mode_no_run_is_in_is_traced_to_that_mode() -> None:
+    """C's `r_fired` tells the modes apart by `if (c->mode == R_S1)`: a branch to a mode no run of the suite is
+    in was left without a reason (a random machine whose S0 and S1 no run reaches)."""
+    c = ["static int r_fired(const r_ctx_t *c, const r_inputs_t *i, const r_params_t *p)", "{", "    int fired = -1;"]
+    c += ["    if (c->mode == R_S0) {", "        fired = r_fired_S0(c, i, p);", "    } else if (c->mode == R_S1) {"]
+    assert mode_of(c, 4, ("S0", "S1")) == "S0" and mode_of(c, 6, ("S0", "S1")) == "S1"
+
+
+def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it() -> None:
+    """A step that fires t1 or t4 takes their branches of d's update: its `else` is taken when t2 or t3 fires
+    (a random machine whose t1 fires from every mode at every step left that line without a reason)."""
+    python = [
+        "        if fired == 1:  # d = max(d, c)",
+        "            nxt.d = _max(c.d, c.c)",
+        "        elif fired == 4:  # d = d + 1",
+        "            nxt.d = c.d + 1",
+        "        else:",
+        "            nxt.d = c.d",
+    ]
+    numbered = ["t1", "t2", "t3", "t4"]
+    assert others_than_chain(python, 6, numbered) == ["t2", "t3"]
+    assert others_than_chain(python, 4, numbered) == []  # a transition's own branch
+    c = [
+        "        if (fired == 2) { /* d = 0 */",
+        "            next.d = 0;",
+        "        } else {",
+        "            next.d = c->d;",
+    ]
+    assert others_than_chain(c, 4, numbered) == ["t1", "t3", "t4"]
+    restart = ["    if (fired < 0) {", "        r_restart(&next);", "    } else {", "        next.mode = c->mode;"]
+    assert others_than_chain(restart, 4, numbered) == []
+
+
+def test_the_shared_abs_helper_of_an_invariant_has_its_reason(tmp_path: Path) -> None:
+    """The monitor's check of `abs(c - prev(c)) <= 1` calls the shared abs helper: a gap in it is traced to that
+    invariant's abs (a random machine left it without a reason)."""
+    body = '[[transition]]\nfrom = "A"\nto = "B"\nwhen = "go"\n'
+    body += '[[invariant]]\nid = "slow"\nexpr = "abs(c - prev(c)) <= 1"\n'
+    machine = load_spec(_spec(tmp_path, body)).machine
+    assert "(abs(c - prev(c)))" in saturation(machine, "abs_i", 30)
+
+
 @pytest.mark.slow
 def test_the_suite_gives_a_reason_for_gaps_of_dead_transitions_and_their_updates(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -210,6 +253,13 @@ def test_what_a_condition_s_own_text_decides_is_decided_before_the_code() -> Non
     implies = BinOp("->", Cmp("<=", three, one), a)  # 3 <= 1 -> a
     assert tidy(implies, types) == Const(True) and tidy(BinOp("and", implies, a), types) == a
     assert tidy(Ite(Cmp("!=", d, d), three, one), types) == one
+    assert tidy(Arith("-", d, d), types) == Num(Fraction(0), False)  # cppcheck: duplicateExpression
+    assert tidy(Arith("-", r, r), types) == Arith("-", r, r)  # a NaN minus itself is a NaN
+    assert tidy(Arith("+", d, d), types) == Arith("+", d, d)
+    assert tidy(Call("abs", (Arith("-", d, d),)), types) == Num(Fraction(0), False)  # not abs(0)
+    assert tidy(Call("max", (three, one)), types) == three and tidy(Call("min", (three, one)), types) == one
+    half = Num(Fraction(1, 2), True)
+    assert tidy(Call("min", (three, half)), types) == Call("min", (three, half))  # an int and a real: kept
     kept = BinOp("and", a, Cmp("<", d, three))
     assert tidy(kept, types) is kept  # nothing to decide: the spec's own node
     assert without_known(BinOp("and", Not(a), Cmp("<", d, three)), known_false(a)) == Cmp("<", d, three)
@@ -219,8 +269,8 @@ def test_what_a_condition_s_own_text_decides_is_decided_before_the_code() -> Non
 @pytest.mark.slow
 def test_conditions_decided_by_their_own_text_build_and_pass_cppcheck(tmp_path: Path) -> None:
     """Once `c == c` in an update failed gcc (-Wtautological-compare), `(3 <= 1) -> go` and `not go` after a
-    branch on `go` failed cppcheck (knownConditionTrueFalse), and a definition read only by a branch the code
-    leaves out was a C function never called (-Wunused-function)."""
+    branch on `go` failed cppcheck (knownConditionTrueFalse), `abs(c - c)` failed it too (duplicateExpression),
+    and a definition read only by a branch the code leaves out was a C function never called (-Wunused-function)."""
     body = """
 [definitions]
 high = { expr = "x >= 2", if_invalid = false, doc = "a high sample" }
@@ -255,12 +305,100 @@ id = "back"
 from = "C"
 to = "A"
 when = "go or not go"
+do = "c = abs(c - c)"
 """
     outcomes = _conform(_spec(tmp_path, body), ["compile", "exhaustive", "sequences", "cppcheck"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}
     source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
     assert "r_def_high(" not in source and "r_l_high(" in source  # the contracts keep every branch
     assert "(c->c == c->c)" not in source and "(!i->go) &&" not in source
+    assert "(c->c - c->c)" not in source  # cppcheck: duplicateExpression
+
+
+def test_a_part_of_a_guard_the_earlier_guards_decide_is_decided() -> None:
+    from mlca_verify.codegen.tidy import known_false, tidy, with_known
+    from mlca_verify.model import BinOp, Const, Not
+
+    valid, go = Call("valid", (Var("x"),)), Var("go")
+    known = known_false(tidy(BinOp("->", valid, Not(valid)), {}))  # `not valid(x)` was false: valid(x) holds
+    assert with_known(BinOp("or", go, Not(valid)), known) == BinOp("or", go, Const(False))
+    assert tidy(with_known(BinOp("or", go, Not(valid)), known), {}) == go
+    assert with_known(BinOp("and", go, go), known) == BinOp("and", go, go)  # nothing known: the same node
+
+
+@pytest.mark.slow
+def test_a_guard_that_reads_what_an_earlier_guard_decided_passes_cppcheck(tmp_path: Path) -> None:
+    """`valid(x) -> not valid(x)` is `not valid(x)`: after its branch, `go or not valid(x)` was written with a
+    test of `!valid(x)` that cppcheck knows is false (knownConditionTrueFalse, from a random machine)."""
+    body = """
+[[transition]]
+id = "never"
+from = "A"
+to = "B"
+when = "valid(x) -> not valid(x)"
+
+[[transition]]
+id = "then"
+from = "A"
+to = "C"
+when = "go or not valid(x)"
+
+[[transition]]
+id = "back"
+from = ["B", "C"]
+to = "A"
+when = "go"
+"""
+    outcomes = _conform(_spec(tmp_path, body), ["compile", "exhaustive", "cppcheck"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+
+
+def test_two_tests_of_the_mode_joined_are_one() -> None:
+    """`state == S2 -> state == S1` was written `!(mode == S2) || mode == S1` (cppcheck: redundantCondition)."""
+    from mlca_verify.codegen.tidy import tidy
+    from mlca_verify.model import BinOp, Const, Not, StateIn
+
+    a, b, ab = StateIn(("A",)), StateIn(("B",)), StateIn(("A", "B"))
+    assert tidy(BinOp("->", a, b), {}) == Not(a) and tidy(BinOp("->", a, ab), {}) == Const(True)
+    assert tidy(BinOp("or", a, b), {}) == ab and tidy(BinOp("and", ab, Not(a)), {}) == b
+    assert tidy(BinOp("and", a, b), {}) == Const(False) and tidy(BinOp("or", Not(a), Not(b)), {}) == Const(True)
+    assert tidy(BinOp("and", Not(a), Not(b)), {}) == Not(ab) and tidy(BinOp("<->", a, b), {}) == BinOp("<->", a, b)
+
+
+@pytest.mark.slow
+def test_an_input_read_only_at_a_param_s_end_is_probed_outside_0_1(tmp_path: Path) -> None:
+    """A reads `go` only when `c == Q`, which no boundary step meets at the default Q = 3 (c is at most 2): the
+    sanitizers' probe of inputs outside 0/1 found nothing to report and failed; it now takes the steps at the
+    params' ends too. The invariant's `state == B -> state == C` is `state != B` in C (cppcheck)."""
+    body = """
+[params]
+Q = { type = "int", default = 3, range = [2, 3], doc = "a limit" }
+
+[[transition]]
+id = "skip"
+from = "A"
+to = "B"
+when = "c != Q"
+
+[[transition]]
+id = "on"
+from = "A"
+to = "C"
+when = "go"
+
+[[transition]]
+id = "back"
+from = ["B", "C"]
+to = "A"
+when = "true"
+
+[[invariant]]
+id = "odd"
+expr = "state == B -> state == C"
+"""
+    outcomes = _conform(_spec(tmp_path, body), ["compile", "cppcheck", "sanitizers"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+    assert "inputs outside 0/1 reported" in outcomes["sanitizers"].detail
 
 
 def test_a_choice_between_equal_values_is_that_value() -> None:
@@ -404,7 +542,7 @@ to = "B"
 when = "big"
 """
     path = _spec(tmp_path, '[definitions]\nbig = { expr = "x > 1", if_invalid = false, doc = "d" }\n' + body)
-    step = generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"].split("void r_step(")[1].split("\n}\n")[0]
+    step = c_function(generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"], "void r_step(")
     assert "fired" not in step and "if (mode == R_A) {" in step  # direct, the modes told apart first
     outcomes = _conform(path, ["compile", "exhaustive"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
@@ -510,7 +648,81 @@ def test_a_direct_chain_that_must_keep_a_branch_to_its_end_is_numbered(tmp_path:
     numbered step, which tells the branches apart."""
     path = tmp_path / "r.toml"
     path.write_text(KEEPS_A_CALL, encoding="utf-8")
-    step = generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"].split("void r_step(")[1].split("\n}\n")[0]
+    step = c_function(generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"], "void r_step(")
     assert "const int fired = r_fired(c, i, p);" in step
     outcomes = _conform(path, ["compile", "exhaustive", "cppcheck"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+
+
+TWINS = """
+[machine]
+name = "R"
+initial = "A"
+states = ["A", "B"]
+otherwise = "stay"
+
+[inputs]
+go = { doc = "go" }
+
+[variables]
+c = { type = "int", initial = 0, range = [0, 2], doc = "a counter" }
+d = { type = "int", initial = 0, range = [0, 2], doc = "its twin" }
+
+[outputs]
+o = { expr = "OUT", doc = "an output" }
+
+[[transition]]
+id = "count"
+from = "A"
+to = "A"
+when = "go and d < 2"
+do = "c = c + 1; d = d + 1"
+
+[[transition]]
+id = "done"
+from = "A"
+to = "B"
+when = "d >= 2 and c - 1 >= 1"
+
+[[transition]]
+id = "again"
+from = "B"
+to = "A"
+when = "go"
+do = "c = 0; d = 0"
+"""
+
+
+def _twins(tmp_path: Path, output: str) -> Path:
+    path = tmp_path / "r.toml"
+    path.write_text(TWINS.replace("OUT", output), encoding="utf-8")
+    return path
+
+
+def test_only_the_variables_whose_range_the_runs_keep_are_admitted_after_the_step(tmp_path: Path) -> None:
+    """Only the runs keep c in its range (c equals d on every reachable context, so range:c holds; one step from
+    c = 2, d = 0 leaves it): the step requires it of the context before it and admits it of the one after it;
+    every function the step calls requires it. d, whose range every step keeps, needs neither."""
+    path = _twins(tmp_path, "c + 1")
+    assert [f.name for f in machine_ir(load_spec(path), tmp_path / "g").variables if not f.kept] == ["c"]
+    source = generate(load_spec(path), tmp_path / "g")["c/r_fsm.c"]
+    assert "/*@ admit in_reach: 0 <= next.c <= 2 && \\true; */" in c_function(source, "void r_step(")
+    assert "@ requires in_reach: 0 <= c->c <= 2 && \\true;" in source and "next.d <=" not in source
+    fired = source.split("static int r_fired_A(")[0].rsplit("/*@ requires", 1)[1]
+    assert "0 <= c->c <= 2 && 0 <= c->d <= 2" in fired
+
+
+@pytest.mark.slow
+def test_wp_proves_the_functions_a_step_calls_on_a_variable_whose_range_only_the_runs_keep(tmp_path: Path) -> None:
+    """The output `c + 1` was typed int8_t from c's range, but the outputs' function, proved for any context after
+    the step, knew nothing of c: WP could not prove its ensures or that `c + 1` does not overflow (a random
+    machine's `max(c, P)` failed the same way); nor could it prove that A's chain, proved for any context, does
+    not overflow in `c - 1`. Every code-side check passes."""
+    path = _twins(tmp_path, "c + 1")
+    outcomes = _conform(path, ["compile", "exhaustive", "frama-c-wp", "cppcheck", "sanitizers"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:400] for n, o in outcomes.items() if not o.ok}
+    assert "admits it of the one after it" in outcomes["frama-c-wp"].detail
+    assert (
+        main(["tests", "--no-target", "--generated", str(tmp_path / "gen"), "--out", str(tmp_path / "t"), str(path)])
+        == 0
+    )

@@ -16,7 +16,7 @@ from mlca_verify.codegen.once import computed_once, mode_paths
 from mlca_verify.codegen.rounded import Part as RoundedPart
 from mlca_verify.codegen.rounded import rounded_parts
 from mlca_verify.codegen.shapes import Shape, Use, shared_shapes
-from mlca_verify.codegen.tidy import known_false, tidy, without_known
+from mlca_verify.codegen.tidy import known_false, tidy, with_known, without_known
 from mlca_verify.codegen.widths import widths
 from mlca_verify.floats import FORMATS, Format
 from mlca_verify.logic.kept import kept_ranges
@@ -423,11 +423,11 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         known: list[Expr] = []
         branches, guards = [], []
         for t in m.outgoing(state):
-            guard = tidy(without_known(t.guard, known), names.types)
+            guard = tidy(with_known(without_known(t.guard, known), known), names.types)
             code = replace(stated(guard, "bool", once), text=show(t.guard))
             branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite, guard))
             guards.append(guard)
-            known += known_false(t.guard)
+            known += known_false(t.guard) + known_false(tidy(t.guard, names.types))
         return replace(_case(state, index, tuple(branches), guards, hoisted),
                        once=tuple(d.name for d in m.definitions if d.name in once))  # fmt: skip
 

@@ -2,26 +2,29 @@
 
 A spec may hold a comparison of two constants (`3 <= 1`), a comparison or connective whose two sides are the same
 expression (`d == d`, `far -> far`) or one side's negation (`a or not a`), one side holding the other
-(`a or (a and b)`), a constant that reaches a connective or a choice, or a choice between two equal values. The
-spec means what it says, and every engine reads it as written; but C that tests a condition whose outcome its
-text fixes is refused by gcc (-Wtautological-compare) and by cppcheck (knownConditionTrueFalse,
-duplicateExpression, oppositeExpression, redundantCondition, duplicateExpressionTernary).
+(`a or (a and b)`), a constant that reaches a connective or a choice, a choice between two equal values, an int
+minus itself (`c - c`), or `abs`, `min` or `max` of numbers. The spec means what it says, and every engine reads
+it as written; but C that tests a condition whose outcome its text fixes is refused by gcc
+(-Wtautological-compare) and by cppcheck (knownConditionTrueFalse, duplicateExpression, oppositeExpression,
+redundantCondition, duplicateExpressionTernary).
 So the code, and the contracts WP proves it against, are written from the condition with those parts decided:
 the same value at every step, in exact arithmetic. Comparisons of reals are kept as written (binary64 compares
 a NaN with itself as unequal). Nodes that nothing changes are the spec's own objects, so what is keyed by a
 node's identity (a real computation's function, see `rounded`) still finds them.
 
 Within one mode's chain of guards, a conjunct that the earlier guards' being false already makes true is
-dropped too (`not b` after a branch on `b`): `known_false` and `without_known`.
+dropped too (`not b` after a branch on `b`), and a part they decide deeper in the guard is decided:
+`known_false`, `without_known` and `with_known`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from fractions import Fraction
 
 from mlca_verify.codegen.joins import conjoin, conjuncts
 from mlca_verify.logic.concrete import COMPARE
-from mlca_verify.model import BinOp, Cmp, Const, Expr, Ite, Not, Num, Type, type_of
+from mlca_verify.model import Arith, BinOp, Call, Cmp, Const, Expr, Ite, Not, Num, StateIn, Type, type_of
 
 TRUE, FALSE = Const(True), Const(False)
 
@@ -42,8 +45,47 @@ def _absorbs(op: str, this: Expr, other: Expr) -> bool:
     return isinstance(other, BinOp) and other.op == inner and this in (other.left, other.right)
 
 
+def _modes_of(e: Expr) -> tuple[bool, tuple[str, ...]] | None:
+    """A test of the mode, `state in {...}` or its negation: whether it is negated, and its modes."""
+    if isinstance(e, StateIn):
+        return False, e.states
+    if isinstance(e, Not) and isinstance(e.arg, StateIn):
+        return True, e.arg.states
+    return None
+
+
+def _mode_test(negated: bool, states: tuple[str, ...]) -> Expr:
+    if not states:
+        return TRUE if negated else FALSE
+    return Not(StateIn(states)) if negated else StateIn(states)
+
+
+def _modes_joined(op: str, left: Expr, right: Expr) -> Expr | None:
+    """Two tests of the mode joined by `and`, `or` or `->`, as one (cppcheck: redundantCondition on
+    `!(mode == A) || mode == B`): the modes' sets joined, in the order the spec names them."""
+    a, b = _modes_of(left), _modes_of(right)
+    if a is None or b is None or op == "<->":
+        return None
+    if op == "->":
+        op, a = "or", (not a[0], a[1])
+    (neg_a, xs), (neg_b, ys) = a, b
+    if neg_a != neg_b:  # one side negated: not in N, and (or) in P
+        (_, n), (_, q) = (a, b) if neg_a else (b, a)
+        if op == "or":  # not in N or in Q: not in N but Q
+            return _mode_test(True, tuple(s for s in n if s not in q))
+        return _mode_test(False, tuple(s for s in q if s not in n))  # in Q and not in N
+    union = (*xs, *(s for s in ys if s not in xs))
+    common = tuple(s for s in xs if s in ys)
+    if neg_a:  # not in X or not in Y: not in both; not in X and not in Y: in neither
+        return _mode_test(True, common if op == "or" else union)
+    return _mode_test(False, union if op == "or" else common)
+
+
 def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
     """`left op right` with what its sides decide taken out."""
+    joined = _modes_joined(e.op, left, right)
+    if joined is not None:
+        return joined
     if left == right or _opposite(left, right):
         same = left == right
         return {
@@ -79,6 +121,26 @@ def _comparison(e: Cmp, types: Mapping[str, Type]) -> Expr:
     return e
 
 
+def _difference(e: Arith, types: Mapping[str, Type]) -> Expr:
+    """`x - x` of ints is 0 (cppcheck: duplicateExpression); of reals it is kept (a NaN or an infinity minus
+    itself is a NaN)."""
+    if e.op == "-" and e.left == e.right and type_of(e, types) == "int":
+        return Num(Fraction(0), False)
+    return e
+
+
+def _constant_call(e: Call) -> Expr:
+    """`abs`, `min` or `max` of numbers of one kind is a number (`abs(0)`, once `c - c` is 0)."""
+    if e.fn == "valid" or not all(isinstance(a, Num) for a in e.args):
+        return e
+    values = [a.value for a in e.args if isinstance(a, Num)]
+    kinds = {a.real for a in e.args if isinstance(a, Num)}
+    if len(kinds) != 1:
+        return e
+    value = abs(values[0]) if e.fn == "abs" else min(values) if e.fn == "min" else max(values)
+    return Num(value, kinds.pop())
+
+
 def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
     """`e` with what its own text decides decided (see the module's docstring)."""
     if isinstance(e, Not):
@@ -90,6 +152,11 @@ def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
         return _connective(e, tidy(e.left, types), tidy(e.right, types))
     if isinstance(e, Cmp):
         return _comparison(e, types)
+    if isinstance(e, Arith):
+        return _difference(e, types)
+    if isinstance(e, Call):
+        tidied = _constant_call(Call(e.fn, tuple(tidy(a, types) for a in e.args)))
+        return e if isinstance(tidied, Call) and tidied.args == e.args else tidied
     if isinstance(e, Ite):
         cond = tidy(e.cond, types)
         if isinstance(cond, Const):
@@ -115,3 +182,19 @@ def without_known(guard: Expr, known: list[Expr]) -> Expr:
     parts = conjuncts(guard)
     kept = [c for c in parts if c not in known]
     return guard if len(kept) == len(parts) else conjoin(kept)
+
+
+def with_known(guard: Expr, known: list[Expr]) -> Expr:
+    """`guard` with each boolean part that `known` holds made true, and each whose negation it holds made false
+    (`not valid(x)` inside a guard tested after a branch on `not valid(x)`), for `tidy` to decide."""
+    if guard in known:
+        return TRUE
+    if _negated(guard) in known:
+        return FALSE
+    if isinstance(guard, Not):
+        arg = with_known(guard.arg, known)
+        return guard if arg is guard.arg else Not(arg)
+    if isinstance(guard, BinOp):
+        left, right = with_known(guard.left, known), with_known(guard.right, known)
+        return guard if left is guard.left and right is guard.right else BinOp(guard.op, left, right)
+    return guard

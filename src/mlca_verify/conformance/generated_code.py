@@ -608,8 +608,9 @@ def sanitizers(t: Subject) -> CheckOutcome:
 def _invalid_bools_missed(t: Subject, exe: Path, rows: str) -> str | None:
     """The step's precondition (every bool input is 0 or 1) is one an integrator's UBSan build checks: a step on
     0xFF bytes must be reported wherever the code reads a bool input. The boundary steps (`rows`) are taken
-    again with their bool inputs 0xFF, since a mode's guards may read an input only for some signals, variables
-    or other inputs. None when one is reported (or when the code reads none), else what went wrong."""
+    again with their bool inputs 0xFF, at the default params and at their ranges' ends, since a mode's guards may
+    read an input only for some signals, variables, params or other inputs. None when one is reported (or when
+    the code reads none), else what went wrong."""
     if not t.ir.inputs:
         return None
     ran = run([str(exe), "invalid"], stdin=rows, timeout=600)
@@ -811,7 +812,8 @@ def _unkept_detail(reached: Sequence[str], unkept: Sequence[str]) -> str:
         return ""
     text = (
         f"; the range of {', '.join(reached)} is kept only from the contexts a run reaches, so the step requires "
-        f"it (in_reach) and leaves it to the engine's {', '.join(f'range:{n}' for n in reached)}"
+        "it of the context before it (in_reach), admits it of the one after it and leaves it to the engine's "
+        f"{', '.join(f'range:{n}' for n in reached)}"
     )
     if unkept:
         listed = ", ".join(f"range:{n}" for n in unkept)

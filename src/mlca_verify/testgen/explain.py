@@ -30,6 +30,7 @@ _OTHERWISE = re.compile(r"otherwise: the mode is kept")
 _EVERY = re.compile(r"\b(?:next|nxt)\.([A-Za-z0-9_]+) = .*(?:/\* |# )every step: ")  # a variable's every rule
 _OUTPUT = re.compile(r"^\s*(?:o->([A-Za-z0-9_]+) = |([A-Za-z0-9_]+)=)")  # an output's line, in C or in Python
 _FIRED = re.compile(r"\bfired == (\d+)\b")  # the step's branch of one transition (numbered from 1, in spec order)
+_ELSE = re.compile(r"^\s*(?:\} )?else(?::| \{)")  # the last branch of a chain, in Python or in C
 LOOK_BACK = 3  # lines above a gap searched for the comment naming its element
 
 
@@ -88,7 +89,7 @@ def _expressions(machine: Machine) -> list[Expr]:
     exprs += [u.expr for t in machine.transitions for u in t.updates]
     exprs += [v.every for v in machine.variables if v.every is not None]
     exprs += [d.expr for d in machine.definitions] + [o.expr for o in machine.outputs]
-    return exprs
+    return exprs + [i.expr for i in machine.invariants]  # the monitor's checks call the same helpers
 
 
 def saturation(machine: Machine, helper: str, depth: int) -> str:
@@ -115,6 +116,40 @@ def saturation(machine: Machine, helper: str, depth: int) -> str:
         f"({', '.join(calls)}), which no run of the suite (at most {depth} steps) does; a longer run may "
         "(try --depth)"
     )
+
+
+def _indent(text: str) -> int:
+    return len(text) - len(text.lstrip())
+
+
+def others_than_chain(lines: Sequence[str], line: int, numbered: Sequence[str]) -> list[str]:
+    """For a gap in the last branch (`else`) of a variable's update by the transitions `fired == N` names: the
+    transitions that take that branch, those the chain does not name (each of whose steps takes its own branch)."""
+    k = line - 2  # the line above the gap
+    if not 0 <= k < len(lines) or not _ELSE.match(lines[k]):
+        return []
+    named: set[int] = set()
+    for text in reversed(lines[:k]):
+        if _indent(text) < _indent(lines[k]):
+            break
+        if _indent(text) == _indent(lines[k]):
+            branch = _FIRED.search(text)
+            if branch is None:
+                break
+            named.add(int(branch.group(1)))
+            if text.lstrip().startswith("if "):
+                break
+    return [t for n, t in enumerate(numbered, 1) if n not in named] if named else []
+
+
+def _through_others(others: Sequence[str], pairs: Sequence[Pair]) -> list[str]:
+    """The reason of a gap only the transitions `others` (or no transition) would take: each one's reasons, if
+    each has one."""
+    found = [reasons_for(t, pairs) for t in others]
+    if not found or not all(found):
+        return []
+    which = f"one of {', '.join(others)}" if len(others) > 1 else others[0]
+    return [f"this branch is taken when {which} fires (or no transition does)", *(r for rs in found for r in rs)]
 
 
 def reasons_for(element: str, pairs: Sequence[Pair]) -> list[str]:
@@ -144,7 +179,7 @@ def mode_of(lines: Sequence[str], line: int, states: Sequence[str]) -> str | Non
             return case.group(1) if case.group(1) in states else None
         if lines[k].startswith("def "):
             break
-    return None
+    return _state_block(lines, line, states)  # C's dispatch to the modes' chains
 
 
 def _state_block(lines: Sequence[str], line: int, states: Sequence[str]) -> str | None:
@@ -202,6 +237,8 @@ def explain(
         helper = None if found else _header_match(lines, gap.line, _HELPER)
         if helper is not None:
             found = [x for x in (saturation(machine, helper, depth),) if x]
+        if not found and element is None:
+            found = _through_others(others_than_chain(lines, gap.line, numbered), pairs)
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
         mode = None if found else mode_of(lines, gap.line, machine.states)
