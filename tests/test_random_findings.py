@@ -1,8 +1,10 @@
 """What random machines with data found on the code side, one regression test each: a machine that can reach a
 step with no transition enabled refused by `gen` at its line; a mode no run reaches, with no transition, compared
-as the code keeps it; a monitor whose invariants read no variable, or no register, built with -Werror; a guard that repeats an
-earlier one of its mode left out of the code (cppcheck: multiCondition); and gaps the suite leaves in a
-transition's update, the shared abs helper, a mode's `otherwise` and a mode no run is in, each with its reason."""
+as the code keeps it; a monitor whose invariants read no variable, or no register, built with -Werror; guards
+that repeat, decide or imply what earlier ones of their mode tested, and conditions their own text decides, left
+out of the code (cppcheck); a range only the runs keep, required by every function the step calls and admitted
+after it (WP); an input read only at a param's range end, probed outside 0/1 (sanitizers); and gaps the suite
+leaves, each with its reason."""
 
 from __future__ import annotations
 
@@ -16,10 +18,10 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.conformance import conform
 from mlca_verify.conformance.outcome import CheckOutcome
-from mlca_verify.model import Arith, Call, Cmp, Num, Var
+from mlca_verify.model import Arith, Call, Cmp, Num, Var, show
 from mlca_verify.spec import load_spec
 from mlca_verify.testgen.explain import element_of, mode_of, others_than_chain, saturation
-from mlca_verify.testgen.objectives import decisions
+from mlca_verify.testgen.objectives import atoms, decisions
 from tests.c_text import c_function
 
 HEAD = """
@@ -156,6 +158,54 @@ def test_a_gap_in_the_c_dispatch_to_a_mode_no_run_is_in_is_traced_to_that_mode()
     c = ["static int r_fired(const r_ctx_t *c, const r_inputs_t *i, const r_params_t *p)", "{", "    int fired = -1;"]
     c += ["    if (c->mode == R_S0) {", "        fired = r_fired_S0(c, i, p);", "    } else if (c->mode == R_S1) {"]
     assert mode_of(c, 4, ("S0", "S1")) == "S0" and mode_of(c, 6, ("S0", "S1")) == "S1"
+
+
+@pytest.mark.slow
+def test_a_number_computed_only_where_a_guard_never_reads_it_has_the_reason_of_its_reader(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`gap` has no conditions of its own, and `far` computes it only where x is valid, which A's chain never
+    is where it reads `far`: the line of gap's function was a gap without a reason (a random machine)."""
+    body = """
+[definitions]
+gap = { expr = "x * 2", doc = "twice the sample" }
+far = { expr = "gap == c", if_invalid = false, doc = "the sample twice the counter" }
+
+[[transition]]
+id = "sampled"
+from = "A"
+to = "B"
+when = "valid(x)"
+
+[[transition]]
+id = "far_off"
+from = "A"
+to = "C"
+when = "far or go"
+
+[[transition]]
+id = "back"
+from = ["B", "C"]
+to = "A"
+when = "true"
+"""
+    path = _spec(tmp_path, body)
+    generated, out = tmp_path / "gen", tmp_path / "tests"
+    assert main(["gen", "--out", str(generated), str(path)]) == 0
+    assert main(["tests", "--no-target", "--generated", str(generated), "--out", str(out), str(path)]) == 0
+    assert "every check passed" in capsys.readouterr().out
+    coverage = json.loads((out / "r" / "coverage.json").read_text(encoding="utf-8"))["coverage"]
+    assert any(g["reason"].startswith("gap is computed only where far reads it") for c in coverage for g in c["gaps"])
+
+
+def test_a_guard_s_valid_is_two_conditions_as_the_code_tests_it(tmp_path: Path) -> None:
+    """The code tests `valid(x)` one end at a time (`0 <= x && x <= 3`), and gcc's MC/DC counts two conditions;
+    the suite paired `valid(x)` as one, with a sample below the range only, so `x <= 3` was never false and
+    left without a reason (a random machine)."""
+    body = '[[transition]]\nid = "t"\nfrom = "A"\nto = "B"\nwhen = "valid(x) or go"\n'
+    machine = load_spec(_spec(tmp_path, body)).machine
+    (guard,) = [d for d in decisions(machine) if d.id == "guard:A:t"]
+    assert [show(a) for a in atoms(guard.expr)] == ["0 <= x", "x <= 3", "go"]
 
 
 def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it() -> None:
@@ -329,13 +379,20 @@ def test_a_part_of_a_guard_the_earlier_guards_decide_is_decided() -> None:
 @pytest.mark.slow
 def test_a_guard_that_reads_what_an_earlier_guard_decided_passes_cppcheck(tmp_path: Path) -> None:
     """`valid(x) -> not valid(x)` is `not valid(x)`: after its branch, `go or not valid(x)` was written with a
-    test of `!valid(x)` that cppcheck knows is false (knownConditionTrueFalse, from a random machine)."""
+    test of `!valid(x)` that cppcheck knows is false (knownConditionTrueFalse, from a random machine); and
+    `not valid(x) and go` is false there, so it is left out of the code."""
     body = """
 [[transition]]
 id = "never"
 from = "A"
 to = "B"
 when = "valid(x) -> not valid(x)"
+
+[[transition]]
+id = "late"
+from = "A"
+to = "C"
+when = "not valid(x) and go"
 
 [[transition]]
 id = "then"
@@ -351,6 +408,8 @@ when = "go"
 """
     outcomes = _conform(_spec(tmp_path, body), ["compile", "exhaustive", "cppcheck"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+    source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
+    assert "/* late: never taken in A: its guard is false where the earlier ones are */" in source
 
 
 def test_two_tests_of_the_mode_joined_are_one() -> None:

@@ -106,9 +106,9 @@ class Branch:
 class Case:
     """A mode's transitions in priority order. The code writes `code`: the first `written` of them, but for a
     guard that repeats an earlier one of the mode (never taken there: `repeats` names each with the one it
-    repeats) or is false as written (`never`). When `closes`, the last written is enabled whenever the ones
-    before it are not (its guard negates an earlier one, or is `true`), so it is the chain's `else` and nothing
-    after it is reachable. The contracts keep every branch."""
+    repeats), is false as written (`never`) or once the earlier guards are false (`decided`). When `closes`, the
+    last written is enabled whenever the ones before it are not (its guard negates an earlier one, or is `true`),
+    so it is the chain's `else` and nothing after it is reachable. The contracts keep every branch."""
 
     state: str
     index: int
@@ -120,6 +120,7 @@ class Case:
     hoisted: int = 0  # the leading branches the step tests before telling the modes apart (see `MachineIR.hoisted`)
     dropped: tuple[Branch, ...] = ()  # those just before the chain's end that go where it goes (see `_trimmed`)
     once: tuple[str, ...] = ()  # the definitions the step computes once for this mode, read from `d` (see `once`)
+    decided: tuple[Branch, ...] = ()  # a guard the earlier ones' being false makes false (see `tidy.with_known`)
 
     @property
     def code(self) -> tuple[Branch, ...]:
@@ -131,7 +132,7 @@ class Case:
     def chain(self) -> tuple[Branch, ...]:
         """What a chain that tells every transition apart tests (the Python's, and the C adapter's that reports
         the transition that fired): every branch written but those never taken."""
-        left_out = {id(b) for b, _ in self.repeats} | {id(b) for b in self.never}
+        left_out = {id(b) for b, _ in self.repeats} | {id(b) for b in (*self.never, *self.decided)}
         return tuple(b for b in self.branches[: self.written] if id(b) not in left_out)
 
     @property
@@ -150,13 +151,20 @@ def closing(guards: Sequence[Expr]) -> int | None:
     return None
 
 
-def _case(state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr], hoisted: int) -> Case:
+def _case(
+    state: str, index: int, branches: tuple[Branch, ...], guards: Sequence[Expr], hoisted: int, *, keys: Sequence[Expr]
+) -> Case:
+    """`guards` as the code tests them; `keys` the same before what the earlier guards decide deeper in them was
+    decided (see `tidy.with_known`), which tell a guard that repeats an earlier one."""
     last = closing(guards[hoisted:])
     written = len(branches) if last is None else hoisted + last + 1
-    first = {g: branches[k] for k, g in reversed(list(enumerate(guards[:written])))}
-    repeats = tuple((b, first[g]) for b, g in zip(branches[:written], guards, strict=False) if first[g] is not b)
-    never = tuple(b for b, g in zip(branches[:written], guards, strict=False) if g == Const(False))
-    return Case(state, index, branches, written, last is not None, repeats, never, hoisted)
+    first = {g: branches[k] for k, g in reversed(list(enumerate(keys[:written])))}
+    repeats = tuple((b, first[g]) for b, g in zip(branches[:written], keys, strict=False) if first[g] is not b)
+    repeated = {id(b) for b, _ in repeats}
+    false = [(b, k) for b, g, k in zip(branches[:written], guards, keys, strict=False) if g == Const(False)]
+    never = tuple(b for b, k in false if k == Const(False) and id(b) not in repeated)
+    decided = tuple(b for b, k in false if k != Const(False) and id(b) not in repeated)
+    return Case(state, index, branches, written, last is not None, repeats, never, hoisted, decided=decided)
 
 
 _CALL = re.compile(r"\w\(")  # a function called in C code
@@ -421,14 +429,16 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     def chain(state: str, index: int, hoisted: int, once: frozenset[str] = frozenset()) -> Case:
         """The mode's branches, each guard written without what the earlier guards' being false decides."""
         known: list[Expr] = []
-        branches, guards = [], []
+        branches, guards, keys = [], [], []
         for t in m.outgoing(state):
-            guard = tidy(with_known(without_known(t.guard, known), known), names.types)
+            key = tidy(without_known(t.guard, known), names.types)
+            guard = tidy(with_known(key, known), names.types)
             code = replace(stated(guard, "bool", once), text=show(t.guard))
             branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite, guard))
             guards.append(guard)
+            keys.append(key)
             known += known_false(t.guard) + known_false(tidy(t.guard, names.types))
-        return replace(_case(state, index, tuple(branches), guards, hoisted),
+        return replace(_case(state, index, tuple(branches), guards, hoisted, keys=keys),
                        once=tuple(d.name for d in m.definitions if d.name in once))  # fmt: skip
 
     stored = stored_registers(m, tuple(prevs))
@@ -494,7 +504,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     )
     written = tuple(
         replace(case, branches=(*case.branches[: case.hoisted], *case.code), written=case.hoisted + len(case.code),
-                repeats=(), never=(), dropped=())
+                repeats=(), never=(), decided=(), dropped=())
         for case in ir.cases
     )  # fmt: skip
     in_code = replace(ir, guards=(), cases=written)  # what the code holds, not the contracts

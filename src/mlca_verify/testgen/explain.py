@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from mlca_verify.model import Call, Expr, Machine, name_types, nodes, show, type_of
+from mlca_verify.model import Call, Expr, Machine, name_types, names_of, nodes, show, type_of
 from mlca_verify.testgen.coupling import coupling_reason
 from mlca_verify.testgen.measure import Gap
 from mlca_verify.testgen.search import Pair
@@ -152,6 +152,27 @@ def _through_others(others: Sequence[str], pairs: Sequence[Pair]) -> list[str]:
     return [f"this branch is taken when {which} fires (or no transition does)", *(r for rs in found for r in rs)]
 
 
+def _readers(name: str, machine: Machine) -> list[str]:
+    """The definitions and transitions whose expressions read the definition `name`, in the spec's order."""
+    found = [d.name for d in machine.definitions if name in names_of(d.expr)]
+    exprs = {t.id: [t.guard, *(u.expr for u in t.updates)] for t in machine.transitions}
+    return found + [t for t, es in exprs.items() if any(name in names_of(e) for e in es)]
+
+
+def _through_readers(element: str, machine: Machine, pairs: Sequence[Pair]) -> list[str]:
+    """The reason of a gap in a definition's function with none of its own (a number has no conditions): the
+    reasons of what reads it, the nearest readers that have some (`gap` is computed only where `far` reads it)."""
+    seen, todo = {element}, _readers(element, machine)
+    while todo:
+        found = [r for t in todo for r in reasons_for(t, pairs)]
+        if found:
+            verb = "reads" if len(todo) == 1 else "read"
+            return [f"{element} is computed only where {', '.join(todo)} {verb} it", *found]
+        seen.update(todo)
+        todo = [r for t in todo for r in _readers(t, machine) if r not in seen]
+    return []
+
+
 def reasons_for(element: str, pairs: Sequence[Pair]) -> list[str]:
     """The reasons of the element's conditions without a pair, the decisions the code evaluates."""
     prefixes = ("guard:", "def:", "valid:", "choice:", "output:", "inv:")
@@ -228,6 +249,7 @@ def explain(
     known |= {d.name for d in machine.definitions} | {v.name for v in machine.variables if v.every is not None}
     known |= {o.name for o in machine.outputs}
     numbered = [t.id for t in machine.transitions]
+    definitions = {d.name for d in machine.definitions}
     reasons = []
     for gap in gaps:
         element = element_of(lines, gap.line, known, numbered) or _last_guard(lines, gap.line, machine)
@@ -241,6 +263,8 @@ def explain(
             found = _through_others(others_than_chain(lines, gap.line, numbered), pairs)
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
+        if not found and element in definitions:
+            found = _through_readers(element, machine, pairs)
         mode = None if found else mode_of(lines, gap.line, machine.states)
         if mode is not None and mode in unvisited:
             found = [unvisited_reason(mode, depth)]

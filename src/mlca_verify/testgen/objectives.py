@@ -242,19 +242,22 @@ def decisions(machine: Machine) -> list[Decision]:
         *output_decisions(machine),
         *invariant_decisions(machine),
     ]
-    return [replace(d, expr=per_mode(d.expr)) for d in found]
+    return [replace(d, expr=per_mode(d.expr, machine)) for d in found]
 
 
-def per_mode(expr: Expr) -> Expr:
-    """`state in {A, B}` as the generated C tests it, one mode at a time (`mode == A || mode == B`),
-    so that each test is a condition of its own, as gcc's MC/DC counts it."""
+def per_mode(expr: Expr, machine: Machine) -> Expr:
+    """`state in {A, B}` as the generated C tests it, one mode at a time (`mode == A || mode == B`), and
+    `valid(x)` one end of the range at a time (`lo <= x && x <= hi`), so that each test is a condition of its
+    own, as gcc's MC/DC counts it."""
     if isinstance(expr, StateIn) and len(expr.states) > 1:
         return disjoin([StateIn((state,)) for state in expr.states])
+    if isinstance(expr, Call) and expr.fn == "valid" and all(isinstance(a, Var) for a in expr.args):
+        return validity(machine, tuple(a.name for a in expr.args if isinstance(a, Var))) or expr
     if isinstance(expr, Not):
-        arg = per_mode(expr.arg)
+        arg = per_mode(expr.arg, machine)
         return expr if arg is expr.arg else Not(arg)
     if isinstance(expr, BinOp):
-        left, right = per_mode(expr.left), per_mode(expr.right)
+        left, right = per_mode(expr.left, machine), per_mode(expr.right, machine)
         return expr if (left, right) == (expr.left, expr.right) else BinOp(expr.op, left, right)
     return expr
 
