@@ -169,6 +169,8 @@ def test_a_gap_in_the_c_dispatch_to_a_mode_no_run_is_in_is_traced_to_that_mode()
     c = ["static int r_fired(const r_ctx_t *c, const r_inputs_t *i, const r_params_t *p)", "{", "    int fired = -1;"]
     c += ["    if (c->mode == R_S0) {", "        fired = r_fired_S0(c, i, p);", "    } else if (c->mode == R_S1) {"]
     assert mode_of(c, 4, ("S0", "S1")) == "S0" and mode_of(c, 6, ("S0", "S1")) == "S1"
+    c += ["        fired = r_fired_S1(c, i, p);", "    } else { /* not a state */", "        fired = -1;"]
+    assert mode_of(c, 9, ("S0", "S1")) is None  # the restart's branch is no mode's
 
 
 @pytest.mark.slow
@@ -207,11 +209,23 @@ when = "true"
 def test_a_guard_s_valid_is_two_conditions_as_the_code_tests_it(tmp_path: Path) -> None:
     """The code tests `valid(x)` one end at a time (`0 <= x && x <= 3`), and gcc's MC/DC counts two conditions;
     the suite paired `valid(x)` as one, with a sample below the range only, so `x <= 3` was never false and
-    left without a reason (a random machine)."""
-    body = '[[transition]]\nid = "t"\nfrom = "A"\nto = "B"\nwhen = "valid(x) or go"\n'
+    left without a reason (a random machine). A real signal's check is one call of the code (a rounded part)."""
+    real = '[signals.r]\ntype = "real"\nunit = "m"\nrange = [0.0, 10.0]\ndoc = "a distance"\n'
+    body = real + '[[transition]]\nid = "t"\nfrom = "A"\nto = "B"\nwhen = "valid(x) or valid(r) or go"\n'
     machine = load_spec(_spec(tmp_path, body)).machine
     (guard,) = [d for d in decisions(machine) if d.id == "guard:A:t"]
-    assert [show(a) for a in atoms(guard.expr)] == ["0 <= x", "x <= 3", "go"]
+    assert [show(a) for a in atoms(guard.expr)] == ["0 <= x", "x <= 3", "valid(r)", "go"]
+
+
+def test_only_a_number_read_by_definitions_and_transitions_alone_takes_its_readers_reasons(tmp_path: Path) -> None:
+    """A number an output reads is computed whatever fires: its readers' reasons would not explain its gap."""
+    from mlca_verify.testgen.explain import _readers
+
+    head = '[definitions]\ngap = { expr = "x * 2", doc = "d" }\nfar = { expr = "gap == c", if_invalid = false, doc = "d" }\n'
+    body = head + '[[transition]]\nid = "t"\nfrom = "A"\nto = "B"\nwhen = "far"\n'
+    assert _readers("gap", load_spec(_spec(tmp_path, body)).machine) == ["far"]
+    output = '[outputs]\no = { expr = "gap + 1", if_invalid = 0, doc = "d" }\n'
+    assert _readers("gap", load_spec(_spec(tmp_path, output + body)).machine) is None
 
 
 def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it() -> None:
@@ -785,3 +799,57 @@ def test_wp_proves_the_functions_a_step_calls_on_a_variable_whose_range_only_the
         main(["tests", "--no-target", "--generated", str(tmp_path / "gen"), "--out", str(tmp_path / "t"), str(path)])
         == 0
     )
+
+
+HOISTED = """
+[machine]
+name = "H"
+initial = "A"
+states = ["A", "B"]
+otherwise = "stay"
+
+[inputs]
+a = { doc = "a" }
+b = { doc = "b" }
+c = { doc = "c" }
+go = { doc = "go" }
+
+[[transition]]
+id = "t1"
+from = "*"
+to = "A"
+when = "a or b"
+
+[[transition]]
+id = "t2"
+from = "*"
+to = "A"
+when = "a and c"
+
+[[transition]]
+id = "t3"
+from = "A"
+to = "B"
+when = "go"
+
+[[transition]]
+id = "t4"
+from = "B"
+to = "A"
+when = "go"
+"""
+
+
+@pytest.mark.slow
+def test_a_hoisted_guard_the_earlier_ones_decide_is_not_hoisted(tmp_path: Path) -> None:
+    """The step tests the leading `from = "*"` transitions before the modes; `a and c` after `a or b` is false
+    there, so each mode's chain left it out, and the step, counting it hoisted, dropped A's first transition
+    instead (`go`). Only t1 is hoisted now, and t2 is left out of each chain with its comment."""
+    path = tmp_path / "h.toml"
+    path.write_text(HOISTED, encoding="utf-8")
+    ir = machine_ir(load_spec(path), tmp_path / "g")
+    assert ir.direct and ir.hoisted == 1
+    outcomes = _conform(path, ["compile", "exhaustive", "cppcheck", "frama-c-wp"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+    to_a = c_function((tmp_path / "gen" / "c" / "h_fsm.c").read_text(encoding="utf-8"), "static h_state_t h_to_A(")
+    assert "if (i->go) { /* t3: go */" in to_a and "t2: never taken in A" in to_a

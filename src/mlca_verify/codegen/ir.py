@@ -205,7 +205,7 @@ def _step_form(
     """Whether the step is direct (`direct` when the spec allows it), how many transitions it hoists, each mode's
     chain and what it computes once. A direct chain that must keep a branch going where its end goes falls back
     to the numbered step, which tells those branches apart."""
-    hoisted = _hoisted(m, [tidy(t.guard, types) for t in m.transitions]) if direct else 0
+    hoisted = _hoisted(m, types) if direct else 0
     cases, once = modes(direct=direct, hoisted=hoisted)
     if direct and any(_ends_twice(case) for case in cases):
         return False, 0, *modes(direct=False, hoisted=0)
@@ -229,18 +229,21 @@ def _by_transition(m: Machine) -> bool:
     return any(u.expr != rules[u.variable] for t in m.transitions for u in t.updates)
 
 
-def _hoisted(m: Machine, guards: Sequence[Expr]) -> int:
+def _hoisted(m: Machine, types: Mapping[str, Type]) -> int:
     """How many leading transitions leave every mode for the fallback mode on a condition that is not constant,
-    none repeating or completing the ones before it (a direct step whose context is its mode alone tests them
-    before the modes; see `MachineIR`)."""
+    none repeating or completing the ones before it, nor holding a part they decide (a direct step whose context
+    is its mode alone tests them before the modes, as each mode's chain writes them; see `MachineIR`)."""
     if any(v.name not in observer_variables(m) for v in m.variables):
         return 0  # a context that keeps a variable restarts from a mode that names no state, whatever they say
-    count = 0
+    guards = [tidy(t.guard, types) for t in m.transitions]
+    count, known = 0, list[Expr]()
     for t, g in zip(m.transitions, guards, strict=True):
         leading = t.sources is None and t.target == m.fallback_state and not isinstance(g, Const)
-        if not leading or g in guards[:count] or closing(guards[: count + 1]) == count:
+        written = tidy(with_known(tidy(without_known(t.guard, known), types), known), types)
+        if not leading or written != g or g in guards[:count] or closing(guards[: count + 1]) == count:
             break
         count += 1
+        known += known_false(t.guard) + known_false(g)
     return count
 
 

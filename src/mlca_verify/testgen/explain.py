@@ -152,24 +152,33 @@ def _through_others(others: Sequence[str], pairs: Sequence[Pair]) -> list[str]:
     return [f"this branch is taken when {which} fires (or no transition does)", *(r for rs in found for r in rs)]
 
 
-def _readers(name: str, machine: Machine) -> list[str]:
-    """The definitions and transitions whose expressions read the definition `name`, in the spec's order."""
+def _readers(name: str, machine: Machine) -> list[str] | None:
+    """The definitions and transitions whose expressions read the definition `name`, in the spec's order; None
+    when an output, an `every` rule or an invariant reads it too (the code may compute it there whatever fires)."""
+    elsewhere = [o.expr for o in machine.outputs] + [i.expr for i in machine.invariants]
+    elsewhere += [v.every for v in machine.variables if v.every is not None]
+    if any(name in names_of(e) for e in elsewhere):
+        return None
     found = [d.name for d in machine.definitions if name in names_of(d.expr)]
     exprs = {t.id: [t.guard, *(u.expr for u in t.updates)] for t in machine.transitions}
     return found + [t for t, es in exprs.items() if any(name in names_of(e) for e in es)]
 
 
 def _through_readers(element: str, machine: Machine, pairs: Sequence[Pair]) -> list[str]:
-    """The reason of a gap in a definition's function with none of its own (a number has no conditions): the
-    reasons of what reads it, the nearest readers that have some (`gap` is computed only where `far` reads it)."""
-    seen, todo = {element}, _readers(element, machine)
+    """The reason of a gap in a number's function (a definition with no conditions of its own): the reasons of
+    what reads it, the nearest readers that have some (`gap` is computed only where `far` reads it)."""
+    readers = _readers(element, machine)
+    seen, todo = {element}, readers or []
     while todo:
         found = [r for t in todo for r in reasons_for(t, pairs)]
         if found:
             verb = "reads" if len(todo) == 1 else "read"
             return [f"{element} is computed only where {', '.join(todo)} {verb} it", *found]
         seen.update(todo)
-        todo = [r for t in todo for r in _readers(t, machine) if r not in seen]
+        above = [_readers(t, machine) for t in todo]
+        if any(r is None for r in above):
+            return []
+        todo = [r for rs in above for r in rs or [] if r not in seen]
     return []
 
 
@@ -200,6 +209,8 @@ def mode_of(lines: Sequence[str], line: int, states: Sequence[str]) -> str | Non
             return case.group(1) if case.group(1) in states else None
         if lines[k].startswith("def "):
             break
+    if any("not a state" in lines[k] for k in (line - 2, line - 1) if 0 <= k < len(lines)):
+        return None
     return _state_block(lines, line, states)  # C's dispatch to the modes' chains
 
 
@@ -249,7 +260,7 @@ def explain(
     known |= {d.name for d in machine.definitions} | {v.name for v in machine.variables if v.every is not None}
     known |= {o.name for o in machine.outputs}
     numbered = [t.id for t in machine.transitions]
-    definitions = {d.name for d in machine.definitions}
+    numbers = {d.name for d in machine.definitions if d.type != "bool"}
     reasons = []
     for gap in gaps:
         element = element_of(lines, gap.line, known, numbered) or _last_guard(lines, gap.line, machine)
@@ -263,7 +274,7 @@ def explain(
             found = _through_others(others_than_chain(lines, gap.line, numbered), pairs)
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
-        if not found and element in definitions:
+        if not found and element in numbers:
             found = _through_readers(element, machine, pairs)
         mode = None if found else mode_of(lines, gap.line, machine.states)
         if mode is not None and mode in unvisited:

@@ -247,11 +247,12 @@ def decisions(machine: Machine) -> list[Decision]:
 
 def per_mode(expr: Expr, machine: Machine) -> Expr:
     """`state in {A, B}` as the generated C tests it, one mode at a time (`mode == A || mode == B`), and
-    `valid(x)` one end of the range at a time (`lo <= x && x <= hi`), so that each test is a condition of its
-    own, as gcc's MC/DC counts it."""
+    `valid(x)` of an int signal one end of the range at a time (`lo <= x && x <= hi`), so that each test is a
+    condition of its own, as gcc's MC/DC counts it."""
     if isinstance(expr, StateIn) and len(expr.states) > 1:
         return disjoin([StateIn((state,)) for state in expr.states])
-    if isinstance(expr, Call) and expr.fn == "valid" and all(isinstance(a, Var) for a in expr.args):
+    ints = {sig.name for sig in machine.signals if sig.type == "int"}  # a real one's check is one rounded call
+    if isinstance(expr, Call) and expr.fn == "valid" and all(isinstance(a, Var) and a.name in ints for a in expr.args):
         return validity(machine, tuple(a.name for a in expr.args if isinstance(a, Var))) or expr
     if isinstance(expr, Not):
         arg = per_mode(expr.arg, machine)
