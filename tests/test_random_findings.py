@@ -228,6 +228,41 @@ def test_only_a_number_read_by_definitions_and_transitions_alone_takes_its_reade
     assert _readers("gap", load_spec(_spec(tmp_path, output + body)).machine) is None
 
 
+@pytest.mark.slow
+def test_a_definition_read_only_by_one_nothing_reads_is_paired_where_the_code_reads_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`ready` is read by nothing, so the code never computes it; through it the suite took `near` as read at
+    every step and paired its `go` there, while the code reads `near` only where `go` is false (after `stop`):
+    the gaps in near's function had no reason (three random machines)."""
+    body = """
+[definitions]
+near = { expr = "x == 3 or go", if_invalid = true, doc = "a high sample, or go" }
+ready = { expr = "near and c > 0", doc = "read by nothing" }
+
+[[transition]]
+id = "stop"
+from = "A"
+to = "B"
+when = "go"
+
+[[transition]]
+id = "near_by"
+from = "A"
+to = "C"
+when = "near"
+
+[[transition]]
+id = "back"
+from = ["B", "C"]
+to = "A"
+when = "true"
+"""
+    reasons = _gap_reasons(tmp_path, body, capsys)
+    assert reasons and all(reasons)
+    assert any("go in def:near" in r for r in reasons)
+
+
 def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it() -> None:
     """A step that fires t1 or t4 takes their branches of d's update: its `else` is taken when t2 or t3 fires
     (a random machine whose t1 fires from every mode at every step left that line without a reason)."""

@@ -90,10 +90,20 @@ def _through_definitions(machine: Machine, name: str, checks: dict[str, Expr | N
     samples valid, and the short circuits inside it."""
     parts: list[Expr] = []
     for d in machine.definitions:
-        if d.name != name and _reads(d.expr, name):
+        if d.name != name and _reads(d.expr, name) and read_anywhere(machine, d.name):
             gate = [g for g in (outer_of(machine, d.name, checks), checks.get(d.name)) if g is not None]
             parts += [conjoin([*gate, *p]) for p in paths(d.expr, name)]
     return parts
+
+
+def read_anywhere(machine: Machine, name: str) -> bool:
+    """Does anything read definition `name`: the step, the outputs, the monitor's invariants, or a definition read
+    so? One nothing reads has no read site (the code never computes it), which `read_context`'s None (every
+    step) must not stand for."""
+    exprs = [o.expr for o in machine.outputs] + [i.expr for i in machine.invariants]
+    if read_before(machine, name) or any(_reads(e, name) for e in exprs):
+        return True
+    return any(d.name != name and _reads(d.expr, name) and read_anywhere(machine, d.name) for d in machine.definitions)
 
 
 def read_before(machine: Machine, name: str) -> bool:
