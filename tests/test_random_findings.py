@@ -632,6 +632,20 @@ def test_a_side_that_holds_the_other_absorbs_it() -> None:
     assert tidy(BinOp("or", a, BinOp("and", b, b)), types) == BinOp("or", a, b)
 
 
+def test_a_side_repeated_in_a_chain_is_written_once() -> None:
+    """`(valid(x) -> 1 <= c) or not valid(x)` was written `(!valid || 1 <= c) || !valid` (cppcheck:
+    duplicateExpression, from a random machine of seed 11)."""
+    from mlca_verify.codegen.tidy import tidy
+    from mlca_verify.model import BinOp, Not
+
+    a, b = Var("a"), Var("b")
+    assert tidy(BinOp("or", BinOp("->", a, b), Not(a)), {}) == BinOp("->", a, b)
+    assert tidy(BinOp("or", BinOp("->", a, b), b), {}) == BinOp("->", a, b)
+    assert tidy(BinOp("and", a, BinOp("and", b, a)), {}) == BinOp("and", b, a)
+    assert tidy(BinOp("or", a, BinOp("and", b, a)), {}) == a  # absorbed
+    assert tidy(BinOp("and", BinOp("->", a, b), Not(a)), {}) == BinOp("and", BinOp("->", a, b), Not(a))
+
+
 def test_a_direct_step_that_keeps_a_variable_restarts_a_mode_that_names_no_state(tmp_path: Path) -> None:
     """`c` is updated by no transition, so the step is direct; a `from = "*"` transition to the fallback mode,
     tested before the modes, would leave `c` as it was in a context whose mode names no state, where the restart

@@ -2,11 +2,11 @@
 
 A spec may hold a comparison of two constants (`3 <= 1`), a comparison or connective whose two sides are the same
 expression (`d == d`, `far -> far`) or one side's negation (`a or not a`), one side holding the other
-(`a or (a and b)`), a constant that reaches a connective or a choice, a choice between two equal values, an int
-minus itself (`c - c`), or `abs`, `min` or `max` of numbers. The spec means what it says, and every engine reads
-it as written; but C that tests a condition whose outcome its text fixes is refused by gcc
-(-Wtautological-compare) and by cppcheck (knownConditionTrueFalse, duplicateExpression, oppositeExpression,
-redundantCondition, duplicateExpressionTernary).
+(`a or (a and b)`) or repeated in a chain (`a or (a or b)`), a constant that reaches a connective or a choice,
+a choice between two equal values, an int minus itself (`c - c`), or `abs`, `min` or `max` of numbers. The spec
+means what it says, and every engine reads it as written; but C that tests a condition whose outcome its text
+fixes is refused by gcc (-Wtautological-compare) and by cppcheck (knownConditionTrueFalse, duplicateExpression,
+oppositeExpression, redundantCondition, duplicateExpressionTernary).
 So the code, and the contracts WP proves it against, are written from the condition with those parts decided:
 the same value at every step, in exact arithmetic. Comparisons of reals are kept as written (binary64 compares
 a NaN with itself as unequal). Nodes that nothing changes are the spec's own objects, so what is keyed by a
@@ -81,6 +81,16 @@ def _modes_joined(op: str, left: Expr, right: Expr) -> Expr | None:
     return _mode_test(False, union if op == "or" else common)
 
 
+def _repeats(op: str, this: Expr, other: Expr) -> bool:
+    """`this op other` is `other`: `other` is a chain of the same `op` holding `this` (`a or (a or b)`, and
+    `not a or (a -> b)`, which C writes `!a || (!a || b)`: cppcheck's duplicateExpression)."""
+    if not isinstance(other, BinOp):
+        return False
+    if other.op == op and this in (other.left, other.right):
+        return True
+    return op == "or" and other.op == "->" and this in (_negated(other.left), other.right)
+
+
 def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
     """`left op right` with what its sides decide taken out."""
     joined = _modes_joined(e.op, left, right)
@@ -97,6 +107,8 @@ def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
     for this, other, this_left in ((left, right, True), (right, left, False)):
         if e.op in ("and", "or") and _absorbs(e.op, this, other):  # a or (a and b) is a; a and (a or b) is a
             return this
+        if e.op in ("and", "or") and _repeats(e.op, this, other):  # a or (a or b) is a or b
+            return other
         if isinstance(this, Const):
             if e.op == "and":
                 return other if this.value else FALSE
