@@ -276,7 +276,7 @@ def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it(
     ]
     numbered = ["t1", "t2", "t3", "t4"]
     assert others_than_chain(python, 6, numbered) == ["t2", "t3"]
-    assert others_than_chain(python, 4, numbered) == []  # a transition's own branch
+    assert others_than_chain(python, 4, numbered) is None  # a transition's own branch
     c = [
         "        if (fired == 2) { /* d = 0 */",
         "            next.d = 0;",
@@ -285,7 +285,35 @@ def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it(
     ]
     assert others_than_chain(c, 4, numbered) == ["t1", "t3", "t4"]
     restart = ["    if (fired < 0) {", "        r_restart(&next);", "    } else {", "        next.mode = c->mode;"]
-    assert others_than_chain(restart, 4, numbered) == []
+    assert others_than_chain(restart, 4, numbered) is None
+
+
+@pytest.mark.slow
+def test_the_last_branch_of_an_update_no_step_of_the_code_takes_has_its_reason(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every transition sets c and every mode's chain ends in `else` (`valid(x)` after `not (valid(x) and go)`),
+    so the code always fires one and the Python's `else: nxt.c = c.c` is never run; it was left without a
+    reason (a random machine of seed 11)."""
+    from mlca_verify.testgen.explain import NO_TRANSITION
+
+    body = """
+[[transition]]
+id = "t1"
+from = ["A", "B", "C"]
+to = "B"
+when = "not (valid(x) and go)"
+do = "c = 1"
+
+[[transition]]
+id = "t2"
+from = ["A", "B", "C"]
+to = "C"
+when = "valid(x)"
+do = "c = 0"
+"""
+    reasons = _gap_reasons(tmp_path, body, capsys)
+    assert NO_TRANSITION in reasons and all(reasons), reasons
 
 
 def test_the_shared_abs_helper_of_an_invariant_has_its_reason(tmp_path: Path) -> None:
@@ -515,6 +543,38 @@ def test_a_choice_between_equal_values_is_that_value() -> None:
 
     d, one = Var("d"), Num(Fraction(1), False)
     assert tidy(Ite(Cmp("<", d, one), d, d), {"d": "int"}) == d  # cppcheck: duplicateExpressionTernary
+
+
+def test_a_choice_on_a_negation_is_written_the_other_way_round() -> None:
+    from mlca_verify.codegen.tidy import tidy
+    from mlca_verify.model import Ite, Not
+
+    d, zero, valid = Var("d"), Num(Fraction(0), False), Call("valid", (Var("x"),))
+    assert tidy(Ite(Not(valid), d, zero), {"d": "int"}) == Ite(valid, zero, d)
+
+
+@pytest.mark.slow
+def test_a_choice_on_a_negated_valid_has_its_c_mcdc_pairs(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`d = if not valid(x) then d else 0` was `(!((0 <= x) && (x <= 3))) ? d : 0`, whose two conditions clang's
+    MC/DC never saw paired (it records no test vector of a `?:` on a `!`) though the suite paired them: two
+    gaps without a reason (a random machine of seed 11)."""
+    body = """
+[[transition]]
+id = "t"
+from = "A"
+to = "B"
+when = "go"
+do = "c = if not valid(x) then c else 1"
+
+[[transition]]
+id = "back"
+from = "B"
+to = "A"
+when = "true"
+do = "c = 0"
+"""
+    reasons = _gap_reasons(tmp_path, body, capsys)
+    assert all(reasons) and not [r for r in reasons if "valid" in r], reasons
 
 
 @pytest.mark.slow

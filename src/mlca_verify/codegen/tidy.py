@@ -6,7 +6,9 @@ expression (`d == d`, `far -> far`) or one side's negation (`a or not a`), one s
 a choice between two equal values, an int minus itself (`c - c`), or `abs`, `min` or `max` of numbers. The spec
 means what it says, and every engine reads it as written; but C that tests a condition whose outcome its text
 fixes is refused by gcc (-Wtautological-compare) and by cppcheck (knownConditionTrueFalse, duplicateExpression,
-oppositeExpression, redundantCondition, duplicateExpressionTernary).
+oppositeExpression, redundantCondition, duplicateExpressionTernary). A choice on a negation is written the other
+way round (`if not a then x else y` as `if a then y else x`): clang's MC/DC records no test vector of a `?:`
+whose condition is a `!`, so a suite that pairs its conditions would show them unpaired.
 So the code, and the contracts WP proves it against, are written from the condition with those parts decided:
 the same value at every step, in exact arithmetic. Comparisons of reals are kept as written (binary64 compares
 a NaN with itself as unequal). Nodes that nothing changes are the spec's own objects, so what is keyed by a
@@ -175,6 +177,8 @@ def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
             return tidy(e.then if cond.value else e.other, types)
         if e.then == e.other:  # the same value either way
             return tidy(e.then, types)
+        if isinstance(cond, Not):  # clang records no MC/DC test vector of a `?:` on a negation
+            return Ite(cond.arg, e.other, e.then)
         return e if cond is e.cond else Ite(cond, e.then, e.other)
     return e
 

@@ -130,9 +130,10 @@ def tests(
     if measure:
         report.coverage.append(python_coverage(files["python"], layout.python, work))
         report.coverage.append(c_coverage(files["c"], layout.c_source, work))
+        closed = all(case.closes for case in machine_ir(spec, generated).cases)
         for c, source in zip(report.coverage, (layout.python, layout.c_source), strict=True):
             text = source.read_text(encoding="utf-8")
-            fill(c.gaps, text, spec.machine, suite.pairs, depth=suite.depth, unvisited=suite.unvisited)
+            fill(c.gaps, text, spec.machine, suite.pairs, depth=suite.depth, unvisited=suite.unvisited, closed=closed)
             say(_coverage_line(c))
     if on_target:
         report.target = target.run_on_target(files["c"], layout.c_source, work, report.host_lines)

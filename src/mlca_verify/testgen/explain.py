@@ -122,12 +122,13 @@ def _indent(text: str) -> int:
     return len(text) - len(text.lstrip())
 
 
-def others_than_chain(lines: Sequence[str], line: int, numbered: Sequence[str]) -> list[str]:
+def others_than_chain(lines: Sequence[str], line: int, numbered: Sequence[str]) -> list[str] | None:
     """For a gap in the last branch (`else`) of a variable's update by the transitions `fired == N` names: the
-    transitions that take that branch, those the chain does not name (each of whose steps takes its own branch)."""
+    transitions that take that branch, those the chain does not name (each of whose steps takes its own branch);
+    None for a gap elsewhere."""
     k = line - 2  # the line above the gap
     if not 0 <= k < len(lines) or not _ELSE.match(lines[k]):
-        return []
+        return None
     named: set[int] = set()
     for text in reversed(lines[:k]):
         if _indent(text) < _indent(lines[k]):
@@ -139,17 +140,28 @@ def others_than_chain(lines: Sequence[str], line: int, numbered: Sequence[str]) 
             named.add(int(branch.group(1)))
             if text.lstrip().startswith("if "):
                 break
-    return [t for n, t in enumerate(numbered, 1) if n not in named] if named else []
+    return [t for n, t in enumerate(numbered, 1) if n not in named] if named else None
 
 
-def _through_others(others: Sequence[str], pairs: Sequence[Pair]) -> list[str]:
-    """The reason of a gap only the transitions `others` (or no transition) would take: each one's reasons, if
-    each has one."""
+NO_TRANSITION = (
+    "this branch is taken only where no transition fires, which the code never has: each mode's chain ends in a "
+    "transition enabled whenever the ones before it are not"
+)
+
+
+def _through_others(others: Sequence[str] | None, pairs: Sequence[Pair], *, closed: bool) -> list[str]:
+    """The reason of a gap only the transitions `others` (or no transition, unless every mode's chain is
+    `closed`) would take: each one's reasons, if each has one."""
+    if others is None:
+        return []
+    if not others:
+        return [NO_TRANSITION] if closed else []
     found = [reasons_for(t, pairs) for t in others]
-    if not found or not all(found):
+    if not all(found):
         return []
     which = f"one of {', '.join(others)}" if len(others) > 1 else others[0]
-    return [f"this branch is taken when {which} fires (or no transition does)", *(r for rs in found for r in rs)]
+    none = "" if closed else " (or no transition does)"
+    return [f"this branch is taken when {which} fires{none}", *(r for rs in found for r in rs)]
 
 
 def _readers(name: str, machine: Machine) -> list[str] | None:
@@ -252,9 +264,11 @@ def explain(
     *,
     depth: int,
     unvisited: Sequence[str] = (),
+    closed: bool = False,
 ) -> list[str]:
     """A reason per gap ("" where none is known: a gap the suite should close); `unvisited` are the modes no run
-    of the suite is in."""
+    of the suite is in; `closed` that every mode's chain in the code ends in a transition enabled whenever the
+    ones before it are not (a step of the code always fires one)."""
     lines = source.splitlines()
     known = {t.id for t in machine.transitions} | {i.id for i in machine.invariants}
     known |= {d.name for d in machine.definitions} | {v.name for v in machine.variables if v.every is not None}
@@ -271,7 +285,7 @@ def explain(
         if helper is not None:
             found = [x for x in (saturation(machine, helper, depth),) if x]
         if not found and element is None:
-            found = _through_others(others_than_chain(lines, gap.line, numbered), pairs)
+            found = _through_others(others_than_chain(lines, gap.line, numbered), pairs, closed=closed)
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
         if not found and element in numbers:
@@ -291,7 +305,8 @@ def fill(
     *,
     depth: int,
     unvisited: Sequence[str] = (),
+    closed: bool = False,
 ) -> None:
-    found = explain(gaps, source, machine, pairs, depth=depth, unvisited=unvisited)
+    found = explain(gaps, source, machine, pairs, depth=depth, unvisited=unvisited, closed=closed)
     for gap, reason in zip(gaps, found, strict=True):
         gap.reason = reason
