@@ -26,6 +26,7 @@ from mlca_verify.model import (
     Machine,
     Not,
     Num,
+    Transition,
     Type,
     Var,
     Variable,
@@ -236,15 +237,26 @@ def _hoisted(m: Machine, types: Mapping[str, Type]) -> int:
     if any(v.name not in observer_variables(m) for v in m.variables):
         return 0  # a context that keeps a variable restarts from a mode that names no state, whatever they say
     guards = [tidy(t.guard, types) for t in m.transitions]
-    count, known = 0, list[Expr]()
-    for t, g in zip(m.transitions, guards, strict=True):
+    count = 0
+    for t, g, (_, written) in zip(m.transitions, guards, chain_guards(m.transitions, types), strict=True):
         leading = t.sources is None and t.target == m.fallback_state and not isinstance(g, Const)
-        written = tidy(with_known(tidy(without_known(t.guard, known), types), known), types)
         if not leading or written != g or g in guards[:count] or closing(guards[: count + 1]) == count:
             break
         count += 1
-        known += known_false(t.guard) + known_false(g)
     return count
+
+
+def chain_guards(transitions: Sequence[Transition], types: Mapping[str, Type]) -> list[tuple[Expr, Expr]]:
+    """Each guard of a chain of `transitions` as the code writes it, where the earlier ones are false: its key,
+    without the conjuncts they make true, and the guard, with the parts they decide deeper in it decided too
+    (see `tidy.with_known`)."""
+    known: list[Expr] = []
+    written = []
+    for t in transitions:
+        key = tidy(without_known(t.guard, known), types)
+        written.append((key, tidy(with_known(key, known), types)))
+        known += known_false(t.guard) + known_false(tidy(t.guard, types))
+    return written
 
 
 @dataclass(frozen=True)
@@ -431,17 +443,14 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
 
     def chain(state: str, index: int, hoisted: int, once: frozenset[str] = frozenset()) -> Case:
         """The mode's branches, each guard written without what the earlier guards' being false decides."""
-        known: list[Expr] = []
-        branches, guards, keys = [], [], []
-        for t in m.outgoing(state):
-            key = tidy(without_known(t.guard, known), names.types)
-            guard = tidy(with_known(key, known), names.types)
-            code = replace(stated(guard, "bool", once), text=show(t.guard))
-            branches.append(Branch(numbers[t.id], t.id, t.target, code, t.cite, guard))
-            guards.append(guard)
-            keys.append(key)
-            known += known_false(t.guard) + known_false(tidy(t.guard, names.types))
-        return replace(_case(state, index, tuple(branches), guards, hoisted, keys=keys),
+        outgoing = m.outgoing(state)
+        written = chain_guards(outgoing, names.types)
+        branches = tuple(
+            Branch(numbers[t.id], t.id, t.target, replace(stated(g, "bool", once), text=show(t.guard)), t.cite, g)
+            for t, (_, g) in zip(outgoing, written, strict=True)
+        )
+        keys, guards = [k for k, _ in written], [g for _, g in written]
+        return replace(_case(state, index, branches, guards, hoisted, keys=keys),
                        once=tuple(d.name for d in m.definitions if d.name in once))  # fmt: skip
 
     stored = stored_registers(m, tuple(prevs))

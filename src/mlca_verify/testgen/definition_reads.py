@@ -100,22 +100,34 @@ def read_anywhere(machine: Machine, name: str) -> bool:
     """Does anything read definition `name`: the step, the outputs, the monitor's invariants, or a definition read
     so? One nothing reads has no read site (the code never computes it), which `read_context`'s None (every
     step) must not stand for."""
-    exprs = [o.expr for o in machine.outputs] + [i.expr for i in machine.invariants]
-    if read_before(machine, name) or any(_reads(e, name) for e in exprs):
-        return True
-    return any(d.name != name and _reads(d.expr, name) and read_anywhere(machine, d.name) for d in machine.definitions)
+    after = [o.expr for o in machine.outputs] + [i.expr for i in machine.invariants]
+    return name in read_through(machine, [*_before_step(machine), *after])
 
 
 def read_before(machine: Machine, name: str) -> bool:
     """Does the step read definition `name` over the context before it (a guard, an update, an `every`, an
     environment assumption, or a definition read so)? If not, only the outputs and the monitor read it, after
     the step."""
-    exprs: list[Expr | None] = [t.guard for t in machine.transitions]
-    exprs += [u.expr for t in machine.transitions for u in t.updates] + [v.every for v in machine.variables]
-    exprs += [a.expr for a in machine.assumptions]
-    if any(_reads(e, name) for e in exprs):
-        return True
-    return any(d.name != name and _reads(d.expr, name) and read_before(machine, d.name) for d in machine.definitions)
+    return name in read_through(machine, _before_step(machine))
+
+
+def _before_step(machine: Machine) -> list[Expr]:
+    exprs = [t.guard for t in machine.transitions] + [u.expr for t in machine.transitions for u in t.updates]
+    exprs += [v.every for v in machine.variables if v.every is not None]
+    return exprs + [a.expr for a in machine.assumptions]
+
+
+def read_through(machine: Machine, exprs: list[Expr]) -> set[str]:
+    """The definitions `exprs` read, directly or through the definitions they read."""
+    defined = {d.name: d.expr for d in machine.definitions}
+    todo = [n.name for e in exprs for n in nodes(e) if isinstance(n, Var) and n.name in defined]
+    found: set[str] = set()
+    while todo:
+        name = todo.pop()
+        if name not in found:
+            found.add(name)
+            todo += [n.name for n in nodes(defined[name]) if isinstance(n, Var) and n.name in defined]
+    return found
 
 
 def read_after_context(machine: Machine, name: str, checks: dict[str, Expr | None]) -> Expr | None:

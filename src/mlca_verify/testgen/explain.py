@@ -9,6 +9,7 @@ from collections.abc import Sequence
 
 from mlca_verify.model import Call, Expr, Machine, name_types, names_of, nodes, show, type_of
 from mlca_verify.testgen.coupling import coupling_reason
+from mlca_verify.testgen.definition_reads import read_through
 from mlca_verify.testgen.measure import Gap
 from mlca_verify.testgen.search import Pair
 
@@ -166,10 +167,11 @@ def _through_others(others: Sequence[str] | None, pairs: Sequence[Pair], *, clos
 
 def _readers(name: str, machine: Machine) -> list[str] | None:
     """The definitions and transitions whose expressions read the definition `name`, in the spec's order; None
-    when an output, an `every` rule or an invariant reads it too (the code may compute it there whatever fires)."""
+    when an output, an `every` rule or an invariant reads it too, directly or through a definition (the code
+    may compute it there whatever fires)."""
     elsewhere = [o.expr for o in machine.outputs] + [i.expr for i in machine.invariants]
     elsewhere += [v.every for v in machine.variables if v.every is not None]
-    if any(name in names_of(e) for e in elsewhere):
+    if name in read_through(machine, elsewhere):
         return None
     found = [d.name for d in machine.definitions if name in names_of(d.expr)]
     exprs = {t.id: [t.guard, *(u.expr for u in t.updates)] for t in machine.transitions}
