@@ -393,11 +393,29 @@ def test_what_a_condition_s_own_text_decides_is_decided_before_the_code() -> Non
     assert without_known(Not(a), known_false(BinOp("or", a, Cmp("<", d, three)))) == Const(True)
 
 
+def test_what_the_left_side_decides_where_the_right_is_read_is_decided() -> None:
+    """C reads `b` in `a && b` and `a -> b` only where `a` holds, in `a || b` only where it does not:
+    `!a || (a && d < 3)` was redundantCondition for cppcheck (a random machine of seed 11)."""
+    from mlca_verify.codegen.tidy import tidy
+    from mlca_verify.model import BinOp, Not
+
+    types = {"a": "bool", "b": "bool", "d": "int"}
+    a, b, less = Var("a"), Var("b"), Cmp("<", Var("d"), Num(Fraction(3), False))
+    assert tidy(BinOp("->", a, BinOp("and", a, less)), types) == BinOp("->", a, less)
+    assert tidy(BinOp("or", a, BinOp("and", Not(a), less)), types) == BinOp("or", a, less)
+    assert tidy(BinOp("and", BinOp("and", a, b), BinOp("or", Not(b), less)), types) == BinOp(
+        "and", BinOp("and", a, b), less
+    )
+    kept = BinOp("or", a, BinOp("and", b, less))
+    assert tidy(kept, types) is kept
+
+
 @pytest.mark.slow
 def test_conditions_decided_by_their_own_text_build_and_pass_cppcheck(tmp_path: Path) -> None:
     """Once `c == c` in an update failed gcc (-Wtautological-compare), `(3 <= 1) -> go` and `not go` after a
     branch on `go` failed cppcheck (knownConditionTrueFalse), `abs(c - c)` failed it too (duplicateExpression),
-    and a definition read only by a branch the code leaves out was a C function never called (-Wunused-function)."""
+    so did `go -> (go and c == 1)` (redundantCondition), and a definition read only by a branch the code
+    leaves out was a C function never called (-Wunused-function)."""
     body = """
 [definitions]
 high = { expr = "x >= 2", if_invalid = false, doc = "a high sample" }
@@ -414,6 +432,12 @@ id = "off"
 from = "A"
 to = "C"
 when = "not go and c > 0"
+
+[[transition]]
+id = "settled"
+from = "B"
+to = "A"
+when = "go -> (go and c == 1)"
 
 [[transition]]
 id = "always"
@@ -440,6 +464,7 @@ do = "c = abs(c - c)"
     assert "r_def_high(" not in source and "r_l_high(" in source  # the contracts keep every branch
     assert "(c->c == c->c)" not in source and "(!i->go) &&" not in source
     assert "(c->c - c->c)" not in source  # cppcheck: duplicateExpression
+    assert "(i->go && " not in source  # cppcheck: redundantCondition
 
 
 def test_a_part_of_a_guard_the_earlier_guards_decide_is_decided() -> None:
@@ -701,7 +726,7 @@ def test_a_side_repeated_in_a_chain_is_written_once() -> None:
     a, b = Var("a"), Var("b")
     assert tidy(BinOp("or", BinOp("->", a, b), Not(a)), {}) == BinOp("->", a, b)
     assert tidy(BinOp("or", BinOp("->", a, b), b), {}) == BinOp("->", a, b)
-    assert tidy(BinOp("and", a, BinOp("and", b, a)), {}) == BinOp("and", b, a)
+    assert tidy(BinOp("and", a, BinOp("and", b, a)), {}) == BinOp("and", a, b)  # b where a holds
     assert tidy(BinOp("or", a, BinOp("and", b, a)), {}) == a  # absorbed
     assert tidy(BinOp("and", BinOp("->", a, b), Not(a)), {}) == BinOp("and", BinOp("->", a, b), Not(a))
 

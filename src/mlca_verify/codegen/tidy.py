@@ -16,7 +16,8 @@ node's identity (a real computation's function, see `rounded`) still finds them.
 
 Within one mode's chain of guards, a conjunct that the earlier guards' being false already makes true is
 dropped too (`not b` after a branch on `b`), and a part they decide deeper in the guard is decided:
-`known_false`, `without_known` and `with_known`.
+`known_false`, `without_known` and `with_known`. Within a condition the same is done to the right side of a
+connective, which C reads only where the left side decides it must (`!a || (a && b)` is `!a || b`).
 """
 
 from __future__ import annotations
@@ -163,7 +164,8 @@ def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
             return arg.arg
         return Const(not arg.value) if isinstance(arg, Const) else e if arg is e.arg else Not(arg)
     if isinstance(e, BinOp):
-        return _connective(e, tidy(e.left, types), tidy(e.right, types))
+        left, right = tidy(e.left, types), tidy(e.right, types)
+        return _connective(e, left, _where_evaluated(e.op, left, right, types))
     if isinstance(e, Cmp):
         return _comparison(e, types)
     if isinstance(e, Arith):
@@ -181,6 +183,17 @@ def tidy(e: Expr, types: Mapping[str, Type]) -> Expr:
             return Ite(cond.arg, e.other, e.then)
         return e if cond is e.cond else Ite(cond, e.then, e.other)
     return e
+
+
+def _where_evaluated(op: str, left: Expr, right: Expr, types: Mapping[str, Type]) -> Expr:
+    """`right` with what `left` decides where `right` is read decided (`!a || (a && b)` is `!a || b`: cppcheck's
+    redundantCondition): C reads the right side of `a && b` and of `a -> b` only where `a` holds, of `a || b`
+    only where it does not."""
+    if op not in ("and", "or", "->"):
+        return right
+    known = known_false(left) if op == "or" else [left, *conjuncts(left)]
+    decided = with_known(right, known)
+    return right if decided is right else tidy(decided, types)
 
 
 def known_false(guard: Expr) -> list[Expr]:
