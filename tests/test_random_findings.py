@@ -18,7 +18,7 @@ from mlca_verify.cli import main
 from mlca_verify.codegen import generate, machine_ir, write
 from mlca_verify.conformance import conform
 from mlca_verify.conformance.outcome import CheckOutcome
-from mlca_verify.model import Arith, Call, Cmp, Num, Var, show
+from mlca_verify.model import Arith, Call, Cmp, Const, Num, Var, show
 from mlca_verify.spec import load_spec
 from mlca_verify.testgen.explain import element_of, mode_of, others_than_chain, saturation
 from mlca_verify.testgen.objectives import atoms, decisions
@@ -410,11 +410,24 @@ def test_what_the_left_side_decides_where_the_right_is_read_is_decided() -> None
     assert tidy(kept, types) is kept
 
 
+def test_an_int_compared_with_itself_plus_a_constant_is_decided() -> None:
+    """`c >= c + 1` was written as is: cppcheck's invalidTestForOverflow (two random machines of seed 11)."""
+    from mlca_verify.codegen.tidy import tidy
+
+    types = {"c": "int", "r": "real"}
+    c, r, one = Var("c"), Var("r"), Num(Fraction(1), False)
+    assert tidy(Cmp(">=", c, Arith("+", c, one)), types) == Const(False)
+    assert tidy(Cmp("!=", c, Arith("-", c, one)), types) == Const(True)
+    assert tidy(Cmp("<", Arith("-", c, one), Arith("+", one, c)), types) == Const(True)
+    assert tidy(Cmp(">=", r, Arith("+", r, one)), types) == Cmp(">=", r, Arith("+", r, one))  # NaN, infinity
+
+
 @pytest.mark.slow
 def test_conditions_decided_by_their_own_text_build_and_pass_cppcheck(tmp_path: Path) -> None:
     """Once `c == c` in an update failed gcc (-Wtautological-compare), `(3 <= 1) -> go` and `not go` after a
     branch on `go` failed cppcheck (knownConditionTrueFalse), `abs(c - c)` failed it too (duplicateExpression),
-    so did `go -> (go and c == 1)` (redundantCondition), and a definition read only by a branch the code
+    so did `go -> (go and c == 1)` (redundantCondition), `go` after it (knownConditionTrueFalse) and
+    `c >= c + 1` (invalidTestForOverflow), and a definition read only by a branch the code
     leaves out was a C function never called (-Wunused-function)."""
     body = """
 [definitions]
@@ -440,6 +453,12 @@ to = "A"
 when = "go -> (go and c == 1)"
 
 [[transition]]
+id = "then_on"
+from = "B"
+to = "C"
+when = "go and c > 0"
+
+[[transition]]
 id = "always"
 from = "B"
 to = "A"
@@ -450,6 +469,12 @@ id = "shadowed"
 from = "B"
 to = "C"
 when = "high"
+
+[[transition]]
+id = "never_on"
+from = "C"
+to = "B"
+when = "not go -> c >= c + 1"
 
 [[transition]]
 id = "back"
@@ -465,12 +490,15 @@ do = "c = abs(c - c)"
     assert "(c->c == c->c)" not in source and "(!i->go) &&" not in source
     assert "(c->c - c->c)" not in source  # cppcheck: duplicateExpression
     assert "(i->go && " not in source  # cppcheck: redundantCondition
+    assert "(c->c + 1)" not in source  # cppcheck: invalidTestForOverflow
 
 
 def test_a_part_of_a_guard_the_earlier_guards_decide_is_decided() -> None:
     from mlca_verify.codegen.tidy import known_false, tidy, with_known
     from mlca_verify.model import BinOp, Const, Not
 
+    a, b = Var("a"), Var("b")
+    assert with_known(BinOp("and", a, b), known_false(BinOp("->", a, b))) == BinOp("and", Const(True), Const(False))
     valid, go = Call("valid", (Var("x"),)), Var("go")
     known = known_false(tidy(BinOp("->", valid, Not(valid)), {}))  # `not valid(x)` was false: valid(x) holds
     assert with_known(BinOp("or", go, Not(valid)), known) == BinOp("or", go, Const(False))

@@ -1,9 +1,10 @@
 """Conditions as the code writes them: what a condition's own text decides, decided before it reaches C.
 
 A spec may hold a comparison of two constants (`3 <= 1`), a comparison or connective whose two sides are the same
-expression (`d == d`, `far -> far`) or one side's negation (`a or not a`), one side holding the other
-(`a or (a and b)`) or repeated in a chain (`a or (a or b)`), a constant that reaches a connective or a choice,
-a choice between two equal values, an int minus itself (`c - c`), or `abs`, `min` or `max` of numbers. The spec
+expression (`d == d`, `far -> far`; of ints, also but for a constant added: `c >= c + 1`) or one side's negation
+(`a or not a`), one side holding the other (`a or (a and b)`) or repeated in a chain (`a or (a or b)`), a
+constant that reaches a connective or a choice, a choice between two equal values, an int minus itself
+(`c - c`), or `abs`, `min` or `max` of numbers. The spec
 means what it says, and every engine reads it as written; but C that tests a condition whose outcome its text
 fixes is refused by gcc (-Wtautological-compare) and by cppcheck (knownConditionTrueFalse, duplicateExpression,
 oppositeExpression, redundantCondition, duplicateExpressionTernary). A choice on a negation is written the other
@@ -131,9 +132,19 @@ def _comparison(e: Cmp, types: Mapping[str, Type]) -> Expr:
     if isinstance(e.left, Num) and isinstance(e.right, Num):
         return Const(COMPARE[e.op](e.left.value, e.right.value))
     exact = "real" not in (type_of(e.left, types), type_of(e.right, types))
-    if exact and e.left == e.right:
-        return Const(e.op in ("==", "<=", ">="))
+    (left, by), (right, to) = _offset(e.left), _offset(e.right)
+    if exact and left == right:  # `c >= c + 1` compares 0 with 1 (cppcheck: invalidTestForOverflow)
+        return Const(COMPARE[e.op](by, to))
     return e
+
+
+def _offset(e: Expr) -> tuple[Expr, Fraction]:
+    """`e` as an expression plus a constant: `c + 1` is (c, 1), `c - 1` is (c, -1), `c` is (c, 0)."""
+    if isinstance(e, Arith) and e.op in ("+", "-") and isinstance(e.right, Num):
+        return e.left, e.right.value if e.op == "+" else -e.right.value
+    if isinstance(e, Arith) and e.op == "+" and isinstance(e.left, Num):
+        return e.right, e.left.value
+    return e, Fraction(0)
 
 
 def _difference(e: Arith, types: Mapping[str, Type]) -> Expr:
@@ -198,9 +209,11 @@ def _where_evaluated(op: str, left: Expr, right: Expr, types: Mapping[str, Type]
 
 def known_false(guard: Expr) -> list[Expr]:
     """What holds once `guard` is false: its negation, and each disjunct's (a false `a or b` is `not a`,
-    `not b`; a false `not (a and b)` makes `a` and `b` true)."""
+    `not b`; a false `not (a and b)` or `a -> b` makes `a` true, and the latter `b` false)."""
     if isinstance(guard, BinOp) and guard.op == "or":
         return [_negated(guard), *known_false(guard.left), *known_false(guard.right)]
+    if isinstance(guard, BinOp) and guard.op == "->":  # a false `a -> b` makes `a` true and `b` false
+        return [_negated(guard), guard.left, *conjuncts(guard.left), *known_false(guard.right)]
     if isinstance(guard, Not):
         return [guard.arg, *conjuncts(guard.arg)]
     return [_negated(guard)]
