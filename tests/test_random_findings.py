@@ -316,6 +316,38 @@ do = "c = 0"
     assert NO_TRANSITION in reasons and all(reasons), reasons
 
 
+@pytest.mark.slow
+def test_the_last_branch_of_an_update_only_an_unreached_otherwise_takes_has_its_reason(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every transition sets c, and `not ready` holds wherever `go` does not (`ready` needs `go`), so no step fires
+    none; the code's chains still end in `otherwise` (it does not look into `ready`), and the Python's
+    `else: nxt.c = c.c` had no reason (a random machine of seed 17). It takes the reasons of each mode's last
+    guard, as the `otherwise` branches do."""
+    from mlca_verify.testgen.explain import OTHERWISE_ONLY
+
+    body = """
+[definitions]
+ready = { expr = "valid(x) and go", doc = "a valid sample while go" }
+
+[[transition]]
+id = "t1"
+from = ["A", "B", "C"]
+to = "B"
+when = "go"
+do = "c = 1"
+
+[[transition]]
+id = "t2"
+from = ["A", "B", "C"]
+to = "C"
+when = "not ready"
+do = "c = 0"
+"""
+    reasons = _gap_reasons(tmp_path, body, capsys)
+    assert any(r.startswith(OTHERWISE_ONLY + " | ") for r in reasons) and all(reasons), reasons
+
+
 def test_the_shared_abs_helper_of_an_invariant_has_its_reason(tmp_path: Path) -> None:
     """The monitor's check of `abs(c - prev(c)) <= 1` calls the shared abs helper: a gap in it is traced to that
     invariant's abs (a random machine left it without a reason)."""

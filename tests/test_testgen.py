@@ -550,14 +550,14 @@ def test_a_gap_in_a_definition_or_a_shared_helper_has_its_reason() -> None:
     """A gap deep in a definition's function takes the reasons of that definition's conditions without a pair
     (its validity gate is decided earlier in the chain); a saturation branch of the shared min helper names the
     spec's calls of min; a helper the spec never calls gets no reason."""
-    from mlca_verify.testgen.explain import explain
+    from mlca_verify.testgen.explain import Reach, explain
     from mlca_verify.testgen.measure import Gap
 
     m = load_spec(ROOT / "tests/machines/acc_modes_50hz.toml").machine
     valid = next(o for o in objectives(m) if o.id == "valid:fast_enough#1")
     pairs = [Pair(valid, form="none", reason="no step in any state has it")]
     gaps = [Gap(10, "branch at column 15 never false"), Gap(12, "branch never true"), Gap(13, "branch never true")]
-    reasons = explain(gaps, ACC_C, m, pairs, depth=30)
+    reasons = explain(gaps, ACC_C, m, pairs, reach=Reach(30))
     assert reasons[0] == "0.0 <= speed in valid:fast_enough: no step in any state has it"
     assert reasons[1].startswith("the shared min helper takes this branch only where one of the spec's min(...)")
     assert "min(hold + 1, 1000)" in reasons[1] and "(at most 30 steps)" in reasons[1]

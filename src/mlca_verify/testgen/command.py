@@ -23,7 +23,7 @@ from mlca_verify.model import Machine
 from mlca_verify.spec import LoadedSpec
 from mlca_verify.testgen import DEPTH, target
 from mlca_verify.testgen.emit import Header, c_suite, objectives_json, python_suite
-from mlca_verify.testgen.explain import fill
+from mlca_verify.testgen.explain import Reach, fill
 from mlca_verify.testgen.formats import sarif
 from mlca_verify.testgen.measure import Coverage, build_runner, c_coverage, python_coverage
 from mlca_verify.testgen.search import Sample
@@ -130,10 +130,10 @@ def tests(
     if measure:
         report.coverage.append(python_coverage(files["python"], layout.python, work))
         report.coverage.append(c_coverage(files["c"], layout.c_source, work))
-        closed = all(case.closes for case in machine_ir(spec, generated).cases)
+        closed = [case.state for case in machine_ir(spec, generated).cases if case.closes]
+        reach = Reach(suite.depth, suite.unvisited, closed)
         for c, source in zip(report.coverage, (layout.python, layout.c_source), strict=True):
-            text = source.read_text(encoding="utf-8")
-            fill(c.gaps, text, spec.machine, suite.pairs, depth=suite.depth, unvisited=suite.unvisited, closed=closed)
+            fill(c.gaps, source.read_text(encoding="utf-8"), spec.machine, suite.pairs, reach=reach)
             say(_coverage_line(c))
     if on_target:
         report.target = target.run_on_target(files["c"], layout.c_source, work, report.host_lines)

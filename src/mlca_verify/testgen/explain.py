@@ -5,7 +5,8 @@ docstring), and given the reasons z3 found for that element's conditions without
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass
 
 from mlca_verify.model import Call, Expr, Machine, name_types, names_of, nodes, show, type_of
 from mlca_verify.testgen.coupling import coupling_reason
@@ -148,21 +149,49 @@ NO_TRANSITION = (
     "this branch is taken only where no transition fires, which the code never has: each mode's chain ends in a "
     "transition enabled whenever the ones before it are not"
 )
+OTHERWISE_ONLY = (
+    "this branch is taken only where no transition fires, in a mode's otherwise, which no run of the suite reaches"
+)
 
 
-def _through_others(others: Sequence[str] | None, pairs: Sequence[Pair], *, closed: bool) -> list[str]:
+@dataclass(frozen=True)
+class Reach:
+    """What the suite reaches: its runs' `depth`, the modes no run is in (`unvisited`) and those whose chain in
+    the code ends in a transition enabled whenever the ones before it are not (`closed`: no step of the code
+    in them fires none)."""
+
+    depth: int
+    unvisited: Collection[str] = ()
+    closed: Collection[str] = ()
+
+
+def _through_others(others: Sequence[str], pairs: Sequence[Pair], *, closed: bool) -> list[str]:
     """The reason of a gap only the transitions `others` (or no transition, unless every mode's chain is
     `closed`) would take: each one's reasons, if each has one."""
-    if others is None:
-        return []
-    if not others:
-        return [NO_TRANSITION] if closed else []
     found = [reasons_for(t, pairs) for t in others]
     if not all(found):
         return []
     which = f"one of {', '.join(others)}" if len(others) > 1 else others[0]
     none = "" if closed else " (or no transition does)"
     return [f"this branch is taken when {which} fires{none}", *(r for rs in found for r in rs)]
+
+
+def _no_transition(machine: Machine, pairs: Sequence[Pair], reach: Reach) -> list[str]:
+    """The reason no step of the suite fires no transition: in each mode, its chain closes, no run is in it, or
+    the reasons of its last guard (as for its `otherwise` branch); none if a mode has none."""
+    found: list[str] = []
+    for state in machine.states:
+        chain = machine.outgoing(state)
+        if state in reach.closed:
+            continue
+        if state in reach.unvisited:
+            mode = [unvisited_reason(state, reach.depth)]
+        else:
+            mode = reasons_for(chain[-1].id, pairs) if chain else []
+        if not mode:
+            return []
+        found += mode
+    return [OTHERWISE_ONLY, *dict.fromkeys(found)] if found else [NO_TRANSITION]
 
 
 def _readers(name: str, machine: Machine) -> list[str] | None:
@@ -258,19 +287,8 @@ def unvisited_reason(mode: str, depth: int) -> str:
     )
 
 
-def explain(
-    gaps: Sequence[Gap],
-    source: str,
-    machine: Machine,
-    pairs: Sequence[Pair],
-    *,
-    depth: int,
-    unvisited: Sequence[str] = (),
-    closed: bool = False,
-) -> list[str]:
-    """A reason per gap ("" where none is known: a gap the suite should close); `unvisited` are the modes no run
-    of the suite is in; `closed` that every mode's chain in the code ends in a transition enabled whenever the
-    ones before it are not (a step of the code always fires one)."""
+def explain(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], *, reach: Reach) -> list[str]:
+    """A reason per gap ("" where none is known: a gap the suite should close)."""
     lines = source.splitlines()
     known = {t.id for t in machine.transitions} | {i.id for i in machine.invariants}
     known |= {d.name for d in machine.definitions} | {v.name for v in machine.variables if v.every is not None}
@@ -285,30 +303,24 @@ def explain(
             found = [DIVISION]
         helper = None if found else _header_match(lines, gap.line, _HELPER)
         if helper is not None:
-            found = [x for x in (saturation(machine, helper, depth),) if x]
-        if not found and element is None:
-            found = _through_others(others_than_chain(lines, gap.line, numbered), pairs, closed=closed)
+            found = [x for x in (saturation(machine, helper, reach.depth),) if x]
+        others = None if found or element is not None else others_than_chain(lines, gap.line, numbered)
+        if others:
+            found = _through_others(others, pairs, closed=set(machine.states) <= set(reach.closed))
+        elif others is not None:
+            found = _no_transition(machine, pairs, reach)
         if not found and element and gap.condition is not None:
             found = [x for x in (coupling_reason(machine, element, *gap.condition),) if x]
         if not found and element in numbers:
             found = _through_readers(element, machine, pairs)
         mode = None if found else mode_of(lines, gap.line, machine.states)
-        if mode is not None and mode in unvisited:
-            found = [unvisited_reason(mode, depth)]
+        if mode is not None and mode in reach.unvisited:
+            found = [unvisited_reason(mode, reach.depth)]
         reasons.append(" | ".join(found))
     return reasons
 
 
-def fill(
-    gaps: Sequence[Gap],
-    source: str,
-    machine: Machine,
-    pairs: Sequence[Pair],
-    *,
-    depth: int,
-    unvisited: Sequence[str] = (),
-    closed: bool = False,
-) -> None:
-    found = explain(gaps, source, machine, pairs, depth=depth, unvisited=unvisited, closed=closed)
+def fill(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[Pair], *, reach: Reach) -> None:
+    found = explain(gaps, source, machine, pairs, reach=reach)
     for gap, reason in zip(gaps, found, strict=True):
         gap.reason = reason
