@@ -663,10 +663,12 @@ do = "c = 0"
 
 
 @pytest.mark.slow
-def test_an_update_that_is_the_every_rule_and_a_helper_only_a_left_out_branch_calls(tmp_path: Path) -> None:
+@pytest.mark.parametrize("every", ["2", "if c < c then c else 2"])
+def test_an_update_that_is_the_every_rule_and_a_helper_only_a_left_out_branch_calls(tmp_path: Path, every: str) -> None:
     """`c = 2` where c's every is 2 once wrote the same assignment in the `if` and the `else` (cppcheck:
-    duplicateBranch); a `max` only in a guard the code leaves out once left the max helper defined and never
-    called (gcc: -Wunused-function)."""
+    duplicateBranch), and so did an every the code writes as 2 (`if c < c then c else 2`, five random machines
+    of seed 17); a `max` only in a guard the code leaves out once left the max helper defined and never called
+    (gcc: -Wunused-function)."""
     body = """
 [[transition]]
 id = "on"
@@ -688,7 +690,7 @@ to = "C"
 when = "max(c, 1) > 5 and (3 <= 1)"
 """
     path = _spec(tmp_path, body.replace("[[transition]]", "[[transition]]", 1))
-    text = path.read_text(encoding="utf-8").replace('doc = "a counter" }', 'every = "2", doc = "a counter" }')
+    text = path.read_text(encoding="utf-8").replace('doc = "a counter" }', f'every = "{every}", doc = "a counter" }}')
     path.write_text(text, encoding="utf-8")
     outcomes = _conform(path, ["compile", "exhaustive", "cppcheck"])
     assert all(o.ok for o in outcomes.values()), {n: o.detail for n, o in outcomes.items()}

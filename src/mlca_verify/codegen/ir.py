@@ -457,7 +457,8 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
     modes = partial(_modes, m, chain, parts, observers)
     direct, hoisted, cases, once = _step_form(m, not stored and not _by_transition(m), names.types, modes)
     updates = tuple(
-        _update(v, m, numbers, stated, _nothing if v.name in observers else partial(_common, once)) for v in m.variables
+        _update(v, m, numbers, stated, _nothing if v.name in observers else partial(_common, once), types=names.types)
+        for v in m.variables
     )  # the monitor's update of an observer reads no definition computed once (the step's alone)
     fields = tuple(
         _number_field(v, v.type, v.range, names.fmt, default=_literal(v.initial, v.type, names.fmt),
@@ -559,9 +560,13 @@ def _update(
     numbers: Mapping[str, int],
     stated: Callable[[Expr, Type, frozenset[str]], Code],
     once: Callable[[Sequence[str]], frozenset[str]],
+    *,
+    types: Mapping[str, Type],
 ) -> Update:
     """The variable's update by each transition and every step, reading the definitions `once` gives (for the
-    modes the update runs in) from the fields the step computed them into."""
+    modes the update runs in) from the fields the step computed them into. An update the code writes as it
+    writes the `every` rule (or keeping the value) is left to the chain's `else` (cppcheck's duplicateBranch)."""
+    anyway = tidy(v.every or Var(v.name), types)
     return Update(
         v.name,
         c_type(v.type, v.range, real=FORMATS[m.reals].ctype),
@@ -569,7 +574,7 @@ def _update(
             (numbers[t.id], stated(u.expr, v.type, once(t.sources or m.states)))
             for t in m.transitions
             for u in t.updates
-            if u.variable == v.name and u.expr != (v.every or Var(v.name))  # else: what the step does anyway
+            if u.variable == v.name and tidy(u.expr, types) != anyway  # else: what the step does anyway
         ),
         stated(v.every, v.type, once(m.states)) if v.every is not None else None,
     )
