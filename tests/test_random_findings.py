@@ -288,6 +288,14 @@ def test_the_last_branch_of_an_update_is_traced_to_the_transitions_that_take_it(
     assert others_than_chain(restart, 4, numbered) is None
 
 
+def _every_transition_sets_c(first: str, second: str) -> str:
+    """Two transitions from every mode, each setting c: t1 on `first`, then t2 on `second`."""
+    return "".join(
+        f'\n[[transition]]\nid = "t{k}"\nfrom = ["A", "B", "C"]\nto = "{to}"\nwhen = "{when}"\ndo = "c = {value}"\n'
+        for k, (when, to, value) in enumerate(((first, "B", 1), (second, "C", 0)), 1)
+    )
+
+
 @pytest.mark.slow
 def test_the_last_branch_of_an_update_no_step_of_the_code_takes_has_its_reason(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
@@ -297,21 +305,7 @@ def test_the_last_branch_of_an_update_no_step_of_the_code_takes_has_its_reason(
     reason (a random machine of seed 11)."""
     from mlca_verify.testgen.explain import NO_TRANSITION
 
-    body = """
-[[transition]]
-id = "t1"
-from = ["A", "B", "C"]
-to = "B"
-when = "not (valid(x) and go)"
-do = "c = 1"
-
-[[transition]]
-id = "t2"
-from = ["A", "B", "C"]
-to = "C"
-when = "valid(x)"
-do = "c = 0"
-"""
+    body = _every_transition_sets_c("not (valid(x) and go)", "valid(x)")
     reasons = _gap_reasons(tmp_path, body, capsys)
     assert NO_TRANSITION in reasons and all(reasons), reasons
 
@@ -326,24 +320,8 @@ def test_the_last_branch_of_an_update_only_an_unreached_otherwise_takes_has_its_
     guard, as the `otherwise` branches do."""
     from mlca_verify.testgen.explain import OTHERWISE_ONLY
 
-    body = """
-[definitions]
-ready = { expr = "valid(x) and go", doc = "a valid sample while go" }
-
-[[transition]]
-id = "t1"
-from = ["A", "B", "C"]
-to = "B"
-when = "go"
-do = "c = 1"
-
-[[transition]]
-id = "t2"
-from = ["A", "B", "C"]
-to = "C"
-when = "not ready"
-do = "c = 0"
-"""
+    ready = '[definitions]\nready = { expr = "valid(x) and go", doc = "a valid sample while go" }\n'
+    body = ready + _every_transition_sets_c("go", "not ready")
     reasons = _gap_reasons(tmp_path, body, capsys)
     assert any(r.startswith(OTHERWISE_ONLY + " | ") for r in reasons) and all(reasons), reasons
 
