@@ -18,7 +18,8 @@ node's identity (a real computation's function, see `rounded`) still finds them.
 Within one mode's chain of guards, a conjunct that the earlier guards' being false already makes true is
 dropped too (`not b` after a branch on `b`), and a part they decide deeper in the guard is decided:
 `known_false`, `without_known` and `with_known`. Within a condition the same is done to the right side of a
-connective, which C reads only where the left side decides it must (`!a || (a && b)` is `!a || b`).
+connective, which C reads only where the left side decides it must (`!a || (a && b)` is `!a || b`); that
+also writes a side repeated in a chain once (`a or (a or b)` is `a or b`, `(a or b) or a` is `a or b`).
 """
 
 from __future__ import annotations
@@ -85,16 +86,6 @@ def _modes_joined(op: str, left: Expr, right: Expr) -> Expr | None:
     return _mode_test(False, union if op == "or" else common)
 
 
-def _repeats(op: str, this: Expr, other: Expr) -> bool:
-    """`this op other` is `other`: `other` is a chain of the same `op` holding `this` (`a or (a or b)`, and
-    `not a or (a -> b)`, which C writes `!a || (!a || b)`: cppcheck's duplicateExpression)."""
-    if not isinstance(other, BinOp):
-        return False
-    if other.op == op and this in (other.left, other.right):
-        return True
-    return op == "or" and other.op == "->" and this in (_negated(other.left), other.right)
-
-
 def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
     """`left op right` with what its sides decide taken out."""
     joined = _modes_joined(e.op, left, right)
@@ -111,8 +102,6 @@ def _connective(e: BinOp, left: Expr, right: Expr) -> Expr:
     for this, other, this_left in ((left, right, True), (right, left, False)):
         if e.op in ("and", "or") and _absorbs(e.op, this, other):  # a or (a and b) is a; a and (a or b) is a
             return this
-        if e.op in ("and", "or") and _repeats(e.op, this, other):  # a or (a or b) is a or b
-            return other
         if isinstance(this, Const):
             if e.op == "and":
                 return other if this.value else FALSE

@@ -8,7 +8,21 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from mlca_verify.codegen.joins import conjoin, disjoin
-from mlca_verify.model import BinOp, Const, Expr, Ite, Machine, Not, Prev, StateIn, Transition, Var, children, nodes
+from mlca_verify.model import (
+    BinOp,
+    Const,
+    Expr,
+    Ite,
+    Machine,
+    Not,
+    Prev,
+    StateIn,
+    Transition,
+    Var,
+    children,
+    names_of,
+    nodes,
+)
 
 Path = tuple[Expr, ...]  # conditions that hold wherever an occurrence is evaluated
 
@@ -120,13 +134,13 @@ def _before_step(machine: Machine) -> list[Expr]:
 def read_through(machine: Machine, exprs: list[Expr]) -> set[str]:
     """The definitions `exprs` read, directly or through the definitions they read."""
     defined = {d.name: d.expr for d in machine.definitions}
-    todo = [n.name for e in exprs for n in nodes(e) if isinstance(n, Var) and n.name in defined]
+    todo = [n for e in exprs for n in names_of(e) if n in defined]
     found: set[str] = set()
     while todo:
         name = todo.pop()
         if name not in found:
             found.add(name)
-            todo += [n.name for n in nodes(defined[name]) if isinstance(n, Var) and n.name in defined]
+            todo += [n for n in names_of(defined[name]) if n in defined]
     return found
 
 

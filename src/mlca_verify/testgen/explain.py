@@ -181,9 +181,9 @@ def _no_transition(machine: Machine, pairs: Sequence[Pair], reach: Reach) -> lis
     the reasons of its last guard (as for its `otherwise` branch); none if a mode has none."""
     found: list[str] = []
     for state in machine.states:
-        chain = machine.outgoing(state)
         if state in reach.closed:
             continue
+        chain = machine.outgoing(state)
         if state in reach.unvisited:
             mode = [unvisited_reason(state, reach.depth)]
         else:
@@ -295,6 +295,7 @@ def explain(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[
     known |= {o.name for o in machine.outputs}
     numbered = [t.id for t in machine.transitions]
     numbers = {d.name for d in machine.definitions if d.type != "bool"}
+    every_closed = set(machine.states) <= set(reach.closed)
     reasons = []
     for gap in gaps:
         element = element_of(lines, gap.line, known, numbered) or _last_guard(lines, gap.line, machine)
@@ -306,7 +307,7 @@ def explain(gaps: Sequence[Gap], source: str, machine: Machine, pairs: Sequence[
             found = [x for x in (saturation(machine, helper, reach.depth),) if x]
         others = None if found or element is not None else others_than_chain(lines, gap.line, numbered)
         if others:
-            found = _through_others(others, pairs, closed=set(machine.states) <= set(reach.closed))
+            found = _through_others(others, pairs, closed=every_closed)
         elif others is not None:
             found = _no_transition(machine, pairs, reach)
         if not found and element and gap.condition is not None:
