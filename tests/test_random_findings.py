@@ -1027,3 +1027,56 @@ def test_a_hoisted_guard_the_earlier_ones_decide_is_not_hoisted(tmp_path: Path) 
     assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
     to_a = c_function((tmp_path / "gen" / "c" / "h_fsm.c").read_text(encoding="utf-8"), "static h_state_t h_to_A(")
     assert "if (i->go) { /* t3: go */" in to_a and "t2: never taken in A" in to_a
+
+
+def test_a_negated_premise_and_a_negated_invariant_are_written_without_a_double_negation(tmp_path: Path) -> None:
+    """`not go -> c == 0` was written `(!(!i->go)) || ...` in C and `(not (not i.go)) or ...` in Python, and the
+    Python monitor tested an invariant `not e` as `if not (not e)`: the code now says `go || ...` and `if e`."""
+    body = """
+[[transition]]
+id = "t"
+from = "A"
+to = "B"
+when = "not go -> c == 0"
+
+[[transition]]
+id = "back"
+from = "B"
+to = "A"
+when = "go"
+
+[[invariant]]
+id = "never"
+expr = "not (state == C and c == 2)"
+"""
+    path = _spec(tmp_path, body)
+    files = generate(load_spec(path), tmp_path / "g")
+    c, py = files["c/r_fsm.c"], files["python/r_fsm.py"]
+    assert "(!(!" not in c and "not (not" not in py
+    assert "(i->go || (c->c == 0))" in c and "(i.go or (c.c == 0))" in py
+    assert "if ((c.mode == State.C) and (c.c == 2)):" in py
+    outcomes = _conform(path, ["compile", "exhaustive", "sequences"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+
+
+def test_the_monitors_inline_range_test_of_a_real_is_two_conditions(tmp_path: Path) -> None:
+    """The monitor tests `valid(s)` of a real signal inline, one end at a time, where the step calls one function
+    for it. Its MC/DC decision held `valid(s)` as one condition, so the C's two had no pair of their own and
+    took the reason of another condition of the invariant (MLCA-T's fail-safe-left, once clang measured it)."""
+    body = """
+[[transition]]
+id = "t"
+from = "A"
+to = "B"
+when = "go and valid(s)"
+
+[[invariant]]
+id = "safe"
+expr = "not valid(s) -> state != B"
+"""
+    real = '[signals.s]\ntype = "real"\nunit = "m"\nrange = [0.0, 5.0]\ndoc = "a distance"\n'
+    path = _spec(tmp_path, real + body)
+    found = {d.id: d.expr for d in decisions(load_spec(path).machine)}
+    low, high = Cmp("<=", Num(Fraction(0), True), Var("s")), Cmp("<=", Var("s"), Num(Fraction(5), True))
+    assert low in atoms(found["inv:safe"]) and high in atoms(found["inv:safe"])
+    assert Call("valid", (Var("s"),)) in atoms(found["guard:A:t"])  # the step's one rounded call

@@ -353,7 +353,7 @@ void mlca_monitor(const mlca_ctx_t *before, const mlca_ctx_t *after, const mlca_
     (void)p;
     (void)o;
     const bool holds0 = ((c->mode == MLCA_IDLE) || (c->mode == MLCA_WAITING) || (c->mode == MLCA_MOVING_LEFT) || (c->mode == MLCA_MOVING_RIGHT)); /* A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1)) */
-    const bool holds1 = ((!(!i->N)) || (c->mode == MLCA_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
+    const bool holds1 = (i->N || (c->mode == MLCA_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
     const bool holds2 = ((!(c->mode == MLCA_MOVING_LEFT)) || (i->N && i->L)); /* A3: state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3)) */
     const bool holds3 = ((!(c->mode == MLCA_MOVING_RIGHT)) || (i->N && i->R)); /* A4: state == MOVING_RIGHT -> N and R (Alg. 1, l.32 (Assert 4)) */
     const bool holds4 = ((!(((i->N && i->W) && (!i->L)) && (!i->R))) || ((c->mode == MLCA_IDLE) || (c->mode == MLCA_WAITING))); /* no-move-when-waiting: N and W and not L and not R -> state in {IDLE, WAITING} (Sec. III-B ('defers non-safety-critical lane changes'); Abstract) */

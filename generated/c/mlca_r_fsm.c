@@ -366,7 +366,7 @@ void mlca_r_monitor(const mlca_r_ctx_t *before, const mlca_r_ctx_t *after, const
     (void)p;
     (void)o;
     const bool holds0 = ((c->mode == MLCA_R_IDLE) || (c->mode == MLCA_R_WAITING) || (c->mode == MLCA_R_MOVING_LEFT) || (c->mode == MLCA_R_MOVING_RIGHT)); /* A1: state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1)) */
-    const bool holds1 = ((!(!i->N)) || (c->mode == MLCA_R_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
+    const bool holds1 = (i->N || (c->mode == MLCA_R_IDLE)); /* A2: not N -> state == IDLE (Alg. 1, l.30 (Assert 2)) */
     const bool holds2 = ((!(c->mode == MLCA_R_MOVING_LEFT)) || (i->N && i->L)); /* A3: state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3)) */
     const bool holds3 = ((!(c->mode == MLCA_R_MOVING_RIGHT)) || (i->N && i->R)); /* A4: state == MOVING_RIGHT -> N and R (Alg. 1, l.32 (Assert 4)) */
     const bool holds4 = ((!(((i->N && i->W) && (!i->L)) && (!i->R))) || ((c->mode == MLCA_R_IDLE) || (c->mode == MLCA_R_WAITING))); /* no-move-when-waiting: N and W and not L and not R -> state in {IDLE, WAITING} (Sec. III-B ('defers non-safety-critical lane changes'); Abstract) */

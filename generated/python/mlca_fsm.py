@@ -141,7 +141,7 @@ def monitor(before: Context, after: Context, i: Inputs, p: Params, o: Outputs) -
     failing = []
     if not ((c.mode == State.IDLE) or (c.mode == State.WAITING) or (c.mode == State.MOVING_LEFT) or (c.mode == State.MOVING_RIGHT)):  # state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1))
         failing.append("A1")
-    if not ((not (not i.N)) or (c.mode == State.IDLE)):  # not N -> state == IDLE (Alg. 1, l.30 (Assert 2))
+    if not (i.N or (c.mode == State.IDLE)):  # not N -> state == IDLE (Alg. 1, l.30 (Assert 2))
         failing.append("A2")
     if not ((not (c.mode == State.MOVING_LEFT)) or (i.N and i.L)):  # state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3))
         failing.append("A3")

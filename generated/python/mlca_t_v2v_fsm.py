@@ -298,7 +298,7 @@ def monitor(before: Context, after: Context, i: Inputs, p: Params, o: Outputs, g
     failing = []
     if not ((c.mode == State.IDLE) or (c.mode == State.WAITING) or (c.mode == State.MOVING_LEFT) or (c.mode == State.MOVING_RIGHT)):  # state in {IDLE, WAITING, MOVING_LEFT, MOVING_RIGHT} (Alg. 1, l.29 (Assert 1))
         failing.append("A1")
-    if not ((not (not i.N)) or (c.mode == State.IDLE)):  # not N -> state == IDLE (Alg. 1, l.30 (Assert 2))
+    if not (i.N or (c.mode == State.IDLE)):  # not N -> state == IDLE (Alg. 1, l.30 (Assert 2))
         failing.append("A2")
     if not ((not (c.mode == State.MOVING_LEFT)) or (i.N and _def_L(c, i, p))):  # state == MOVING_LEFT -> N and L (Alg. 1, l.31 (Assert 3))
         failing.append("A3")
@@ -310,8 +310,8 @@ def monitor(before: Context, after: Context, i: Inputs, p: Params, o: Outputs, g
         failing.append("urgent-first-safe-step")
     if not (((o.command != 0) == ((c.mode == State.MOVING_LEFT) or (c.mode == State.MOVING_RIGHT))) and ((o.command == 1) == (c.mode == State.MOVING_LEFT))):  # (command != 0 <-> state in {MOVING_LEFT, MOVING_RIGHT}) and (command == 1 <-> state == MOVING_LEFT) (Alg. 1, l.11-14)
         failing.append("command-only-when-moving")
-    if not ((not (not ((((((0.0 <= i.v) and (i.v <= 70.0)) and ((0.0 <= i.gap_lead_left) and (i.gap_lead_left <= 1000.0))) and ((0.0 <= i.gap_follow_left) and (i.gap_follow_left <= 1000.0))) and ((0.0 <= i.v_follow_left) and (i.v_follow_left <= 70.0))) and ((0.0 <= i.v_lead_left) and (i.v_lead_left <= 70.0))))) or ((not _def_L(c, i, p)) and (not (c.mode == State.MOVING_LEFT)))):  # not (valid(v) and valid(gap_lead_left) and valid(gap_follow_left) and valid(v_follow_left) and valid(v_lead_left)) -> not L and not state == MOVING_LEFT (Sec. III-B 'L (Left Side Empty)': an unknown gap is not a safe gap)
+    if not (((((((0.0 <= i.v) and (i.v <= 70.0)) and ((0.0 <= i.gap_lead_left) and (i.gap_lead_left <= 1000.0))) and ((0.0 <= i.gap_follow_left) and (i.gap_follow_left <= 1000.0))) and ((0.0 <= i.v_follow_left) and (i.v_follow_left <= 70.0))) and ((0.0 <= i.v_lead_left) and (i.v_lead_left <= 70.0))) or ((not _def_L(c, i, p)) and (not (c.mode == State.MOVING_LEFT)))):  # not (valid(v) and valid(gap_lead_left) and valid(gap_follow_left) and valid(v_follow_left) and valid(v_lead_left)) -> not L and not state == MOVING_LEFT (Sec. III-B 'L (Left Side Empty)': an unknown gap is not a safe gap)
         failing.append("fail-safe-left")
-    if not ((not (not ((((((0.0 <= i.v) and (i.v <= 70.0)) and ((0.0 <= i.gap_lead_right) and (i.gap_lead_right <= 1000.0))) and ((0.0 <= i.gap_follow_right) and (i.gap_follow_right <= 1000.0))) and ((0.0 <= i.v_follow_right) and (i.v_follow_right <= 70.0))) and ((0.0 <= i.v_lead_right) and (i.v_lead_right <= 70.0))))) or ((not _def_R(c, i, p)) and (not (c.mode == State.MOVING_RIGHT)))):  # not (valid(v) and valid(gap_lead_right) and valid(gap_follow_right) and valid(v_follow_right) and valid(v_lead_right)) -> not R and not state == MOVING_RIGHT (Sec. III-B 'R (Right Side Empty)': an unknown gap is not a safe gap)
+    if not (((((((0.0 <= i.v) and (i.v <= 70.0)) and ((0.0 <= i.gap_lead_right) and (i.gap_lead_right <= 1000.0))) and ((0.0 <= i.gap_follow_right) and (i.gap_follow_right <= 1000.0))) and ((0.0 <= i.v_follow_right) and (i.v_follow_right <= 70.0))) and ((0.0 <= i.v_lead_right) and (i.v_lead_right <= 70.0))) or ((not _def_R(c, i, p)) and (not (c.mode == State.MOVING_RIGHT)))):  # not (valid(v) and valid(gap_lead_right) and valid(gap_follow_right) and valid(v_follow_right) and valid(v_lead_right)) -> not R and not state == MOVING_RIGHT (Sec. III-B 'R (Right Side Empty)': an unknown gap is not a safe gap)
         failing.append("fail-safe-right")
     return failing

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from fractions import Fraction
 
-from mlca_verify.codegen.lower import BINARY64, Lowering, Names, names_of, real_literal
+from mlca_verify.codegen.lower import BINARY64, Lowering, Names, names_of, real_literal, without_double_negation
 from mlca_verify.floats import Format
 from mlca_verify.model import (
     Arith,
@@ -79,6 +79,7 @@ class AcslLowering(Lowering):
         if isinstance(e, Not):
             return f"(!{self.go(e.arg, prevs)})"
         if isinstance(e, BinOp):
+            e = without_double_negation(e)
             a, b = self.go(e.left, prevs), self.go(e.right, prevs)
             return f"((!{a}) || {b})" if e.op == "->" else f"({a} {CONNECTIVES[e.op]} {b})"
         if isinstance(e, Prev):

@@ -23,6 +23,7 @@ from mlca_verify.logic.kept import kept_ranges
 from mlca_verify.model import (
     Const,
     Expr,
+    Invariant,
     Machine,
     Not,
     Num,
@@ -305,6 +306,7 @@ class Property:
     id: str
     code: Code
     cite: str
+    fails_py: str  # where it fails, in Python: `not e`, or `a` for `not a` (no `not (not a)`)
 
 
 @dataclass(frozen=True)
@@ -509,7 +511,7 @@ def build_ir(m: Machine, module: str, spec_path: str, sha: str, generator: str) 
         updates=tuple(u for u in updates if u.variable not in observers),
         observer_updates=tuple(u for u in updates if u.variable in observers),
         registers=tuple(_register(k, arg, c, stated, k in stored) for k, arg in enumerate(register_args)),
-        invariants=tuple(Property(k, inv.id, code(inv.expr, True), inv.cite) for k, inv in enumerate(m.invariants)),
+        invariants=tuple(_property(k, inv, code) for k, inv in enumerate(m.invariants)),
         transitions=tuple((numbers[t.id], t.id, t.target) for t in m.transitions),
         guards=tuple(stated(t.guard, "bool") for t in m.transitions),
         rounded=tuple(_rounded(p, c) for p in parts),
@@ -552,6 +554,12 @@ def _number_field(
         high=high,
         **extra,  # type: ignore[arg-type]
     )
+
+
+def _property(index: int, inv: Invariant, code: Callable[[Expr, bool], Code]) -> Property:
+    holds = code(inv.expr, True)
+    fails = code(inv.expr.arg, True).py if isinstance(inv.expr, Not) else f"not {holds.py}"
+    return Property(index, inv.id, holds, inv.cite, fails)
 
 
 def _update(

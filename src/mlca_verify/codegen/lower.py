@@ -56,6 +56,13 @@ def c_type(
     return ints
 
 
+def without_double_negation(e: BinOp) -> BinOp:
+    """`not a -> b` as `a or b`: the code writes `a -> b` as `!a || b`, which on a negated premise reads `!!a`."""
+    if e.op == "->" and isinstance(e.left, Not):
+        return BinOp("or", e.left.arg, e.right)
+    return e
+
+
 def real_literal(value: Fraction, fmt: Format = BINARY64, lang: str = "c") -> str:
     """The value of the format nearest to `value`, written so that C and Python read the same one: in binary64
     the same text; in binary32 a C `float` constant (suffix `f`), and in Python that float's exact binary64."""
@@ -161,6 +168,7 @@ class Lowering:
         if isinstance(e, Not):
             return f"(!{self.go(e.arg, prevs)})" if c else f"(not {self.go(e.arg, prevs)})"
         if isinstance(e, BinOp):
+            e = without_double_negation(e)
             a, b = self.go(e.left, prevs), self.go(e.right, prevs)
             if e.op == "->":
                 return f"((!{a}) || {b})" if c else f"((not {a}) or {b})"

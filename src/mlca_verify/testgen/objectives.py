@@ -242,23 +242,25 @@ def decisions(machine: Machine) -> list[Decision]:
         *output_decisions(machine),
         *invariant_decisions(machine),
     ]
-    return [replace(d, expr=per_mode(d.expr, machine)) for d in found]
+    return [replace(d, expr=per_mode(d.expr, machine, reals=d.kind == "invariant")) for d in found]
 
 
-def per_mode(expr: Expr, machine: Machine) -> Expr:
+def per_mode(expr: Expr, machine: Machine, reals: bool = False) -> Expr:
     """`state in {A, B}` as the generated C tests it, one mode at a time (`mode == A || mode == B`), and
     `valid(x)` of an int signal one end of the range at a time (`lo <= x && x <= hi`), so that each test is a
-    condition of its own, as gcc's MC/DC counts it."""
+    condition of its own, as gcc's MC/DC counts it. The step tests a real signal's range in one function of
+    its own (a rounded part); the monitor tests it inline, one end at a time too (`reals`)."""
     if isinstance(expr, StateIn) and len(expr.states) > 1:
         return disjoin([StateIn((state,)) for state in expr.states])
-    ints = {sig.name for sig in machine.signals if sig.type == "int"}  # a real one's check is one rounded call
-    if isinstance(expr, Call) and expr.fn == "valid" and all(isinstance(a, Var) and a.name in ints for a in expr.args):
-        return validity(machine, tuple(a.name for a in expr.args if isinstance(a, Var))) or expr
+    inline = {sig.name for sig in machine.signals if sig.type == "int" or reals}
+    read = expr.args if isinstance(expr, Call) and expr.fn == "valid" else ()
+    if read and all(isinstance(a, Var) and a.name in inline for a in read):
+        return validity(machine, tuple(a.name for a in read if isinstance(a, Var))) or expr
     if isinstance(expr, Not):
-        arg = per_mode(expr.arg, machine)
+        arg = per_mode(expr.arg, machine, reals)
         return expr if arg is expr.arg else Not(arg)
     if isinstance(expr, BinOp):
-        left, right = per_mode(expr.left, machine), per_mode(expr.right, machine)
+        left, right = per_mode(expr.left, machine, reals), per_mode(expr.right, machine, reals)
         return expr if (left, right) == (expr.left, expr.right) else BinOp(expr.op, left, right)
     return expr
 
