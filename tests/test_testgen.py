@@ -564,3 +564,23 @@ def test_a_gap_in_a_definition_or_a_shared_helper_has_its_reason() -> None:
     assert reasons[1].startswith("the shared min helper takes this branch only where one of the spec's min(...)")
     assert "min(hold + 1, 1000)" in reasons[1] and "(at most 30 steps)" in reasons[1]
     assert reasons[2] == ""
+
+
+def test_what_clang_leaves_out_of_mcdc_is_noted_at_its_line() -> None:
+    """clang 19 warns, and measures nothing, where a boolean expression nests one inside an operator (the monitor's
+    `!(a && b) || c`): the report counts them, each at its place, instead of one note for all."""
+    from mlca_verify.testgen.measure import mcdc_notes
+
+    said = (
+        "gen/c/r_fsm.c:580:25: warning: unsupported MC/DC boolean expression; contains an operation with a nested "
+        "boolean expression. Expression will not be covered\n"
+        "  580 |     const bool holds4 = ((!(a && b)) || c);\n"
+        "gen/c/r_fsm.c:581:25: warning: unsupported MC/DC boolean expression; contains an operation with a nested "
+        "boolean expression. Expression will not be covered\n"
+        "runner.c:12:3: warning: unsupported MC/DC boolean expression; contains an operation with a nested "
+        "boolean expression. Expression will not be covered\n"
+        "gen/c/r_fsm.c:9:1: warning: unused variable 'x'\n"
+    )
+    notes = mcdc_notes(said, Path("gen/c/r_fsm.c"))
+    assert [n.split(": ")[0] for n in notes] == ["r_fsm.c:580:25", "r_fsm.c:581:25"]
+    assert all("Expression will not be covered" in n for n in notes)

@@ -29,6 +29,7 @@ from mlca_verify.testgen.measure import Coverage, build_runner, c_coverage, pyth
 from mlca_verify.testgen.search import Sample
 from mlca_verify.testgen.suite import Suite, generate
 from mlca_verify.tools import run
+from mlca_verify.words import count
 
 Say = Callable[[str], None]
 TESTS_SCHEMA = "mlca-verify.tests/1"  # the schema string of coverage.json
@@ -169,7 +170,8 @@ def _coverage_line(c: Coverage) -> str:
     mcdc = f", MC/DC {c.mcdc.text()}" if c.mcdc is not None else ""
     status = "pass" if c.passed and not c.unexplained else "FAIL"
     gaps = f"; {len(c.gaps)} gaps, {len(c.unexplained)} without a reason" if c.gaps else ""
-    figures = f"statements {c.statements.text()}, branches {c.branches.text()}{mcdc}{gaps}"
+    left = f"; {count(len(c.notes), 'expression')} left out of MC/DC by clang" if c.notes else ""
+    figures = f"statements {c.statements.text()}, branches {c.branches.text()}{mcdc}{gaps}{left}"
     return f"  {c.language:<6} {status}  {c.file}: {figures}"
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ from mlca_verify.tools import C_FLAGS, run
 CLANG = "clang-19"
 PROFDATA = "llvm-profdata-19"
 LLVM_COV = "llvm-cov-19"
+_MCDC_WARNING = re.compile(r"^(.*?):(\d+):(\d+): warning: (.*MC/DC.*)$")
 COVERAGE_FLAGS = ("-fprofile-instr-generate", "-fcoverage-mapping", "-fcoverage-mcdc", "-O0")
 
 
@@ -152,8 +154,17 @@ def c_coverage(runner: Path, generated_c: Path, work: Path) -> Coverage:
     lcov = run([LLVM_COV, "export", "-format=lcov", str(exe), f"-instr-profile={merged}", str(generated_c)], stdin="")
     cobertura = cobertura_from_lcov(lcov.output, generated_c.name)
     (work.parent / "cobertura-c.xml").write_text(cobertura, encoding="utf-8")
-    notes = [line.split("warning: ", 1)[1] for line in warnings.splitlines() if "MC/DC" in line and "warning: " in line]
-    return _c_figures(json.loads(exported.output), generated_c, ran.returncode == 0, notes)
+    return _c_figures(json.loads(exported.output), generated_c, ran.returncode == 0, mcdc_notes(warnings, generated_c))
+
+
+def mcdc_notes(warnings: str, generated_c: Path) -> list[str]:
+    """What clang's build said it leaves out of MC/DC in the generated file, each at its line and column."""
+    found = []
+    for line in warnings.splitlines():
+        said = _MCDC_WARNING.search(line)
+        if said and Path(said.group(1)).name == generated_c.name:
+            found.append(f"{generated_c.name}:{said.group(2)}:{said.group(3)}: {said.group(4)}")
+    return found
 
 
 def _c_figures(doc: dict[str, Any], source: Path, passed: bool, notes: list[str]) -> Coverage:
