@@ -1080,3 +1080,51 @@ expr = "not valid(s) -> state != B"
     low, high = Cmp("<=", Num(Fraction(0), True), Var("s")), Cmp("<=", Var("s"), Num(Fraction(5), True))
     assert low in atoms(found["inv:safe"]) and high in atoms(found["inv:safe"])
     assert Call("valid", (Var("s"),)) in atoms(found["guard:A:t"])  # the step's one rounded call
+
+
+def test_an_int_comparison_a_known_one_of_the_same_sides_decides_is_decided() -> None:
+    """After `valid(x) -> c != d` is false, `c == d` holds, so `c <= d` is true (a random machine of seed 29:
+    cppcheck's knownConditionTrueFalse); a false comparison of reals decides nothing (NaN)."""
+    from mlca_verify.codegen.tidy import known_false, with_known
+    from mlca_verify.model import BinOp, Const, Not
+
+    c, d, valid = Var("c"), Var("d"), Call("valid", (Var("x"),))
+    ints = {"c": "int", "d": "int"}
+    known = known_false(BinOp("->", valid, Cmp("!=", c, d)))
+    assert with_known(Cmp("<=", c, d), known, ints) == Const(True)
+    assert with_known(Cmp(">", d, c), known, ints) == Const(False)  # the sides the other way round
+    assert with_known(Cmp("<", c, d), [Cmp("<=", c, d)], ints) is not Const(True)  # not decided
+    assert with_known(Cmp("!=", c, d), [Not(Cmp(">=", d, c))], ints) == Const(True)  # d < c
+    reals = {"c": "real", "d": "real"}
+    assert with_known(Cmp(">=", c, d), [Not(Cmp("<", c, d))], reals) == Cmp(">=", c, d)  # c or d may be NaN
+    assert with_known(Cmp("<=", c, d), known, None) == Cmp("<=", c, d)  # without types, as before
+
+
+@pytest.mark.slow
+def test_a_guard_an_earlier_comparison_of_the_same_ints_decides_passes_cppcheck(tmp_path: Path) -> None:
+    """`c <= d` after a branch on `valid(x) -> c != d` was tested though `c == d` held there (a random machine of
+    seed 29: cppcheck's knownConditionTrueFalse); it is now the chain's `else`."""
+    body = """
+[[transition]]
+id = "t1"
+from = "*"
+to = "B"
+when = "valid(x) -> c != 2"
+
+[[transition]]
+id = "t2"
+from = ["A", "B"]
+to = "A"
+when = "go"
+
+[[transition]]
+id = "t3"
+from = ["A", "B"]
+to = "C"
+when = "c >= 2"
+do = "c = 0"
+"""
+    outcomes = _conform(_spec(tmp_path, body), ["compile", "exhaustive", "sequences", "cppcheck"])
+    assert all(o.ok for o in outcomes.values()), {n: o.detail[:300] for n, o in outcomes.items() if not o.ok}
+    source = (tmp_path / "gen" / "c" / "r_fsm.c").read_text(encoding="utf-8")
+    assert "/* t3: c >= 2: enabled whenever the ones before it are not */" in source

@@ -255,7 +255,7 @@ def chain_guards(transitions: Sequence[Transition], types: Mapping[str, Type]) -
     written = []
     for t in transitions:
         key = tidy(without_known(t.guard, known), types)
-        written.append((key, tidy(with_known(key, known), types)))
+        written.append((key, tidy(with_known(key, known, types), types)))
         known += known_false(t.guard) + known_false(tidy(t.guard, types))
     return written
 

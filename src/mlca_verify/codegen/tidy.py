@@ -16,7 +16,8 @@ a NaN with itself as unequal). Nodes that nothing changes are the spec's own obj
 node's identity (a real computation's function, see `rounded`) still finds them.
 
 Within one mode's chain of guards, a conjunct that the earlier guards' being false already makes true is
-dropped too (`not b` after a branch on `b`), and a part they decide deeper in the guard is decided:
+dropped too (`not b` after a branch on `b`), and a part they decide deeper in the guard is decided (of ints,
+also a comparison of the same two sides as a decided one: `c <= d` where `c != d` is false):
 `known_false`, `without_known` and `with_known`. Within a condition the same is done to the right side of a
 connective, which C reads only where the left side decides it must (`!a || (a && b)` is `!a || b`); that
 also writes a side repeated in a chain once (`a or (a or b)` is `a or b`, `(a or b) or a` is `a or b`).
@@ -192,7 +193,7 @@ def _where_evaluated(op: str, left: Expr, right: Expr, types: Mapping[str, Type]
     if op not in ("and", "or", "->"):
         return right
     known = known_false(left) if op == "or" else [left, *conjuncts(left)]
-    decided = with_known(right, known)
+    decided = with_known(right, known, types)
     return right if decided is right else tidy(decided, types)
 
 
@@ -215,17 +216,56 @@ def without_known(guard: Expr, known: list[Expr]) -> Expr:
     return guard if len(kept) == len(parts) else conjoin(kept)
 
 
-def with_known(guard: Expr, known: list[Expr]) -> Expr:
+def with_known(guard: Expr, known: list[Expr], types: Mapping[str, Type] | None = None) -> Expr:
     """`guard` with each boolean part that `known` holds made true, and each whose negation it holds made false
-    (`not valid(x)` inside a guard tested after a branch on `not valid(x)`), for `tidy` to decide."""
+    (`not valid(x)` inside a guard tested after a branch on `not valid(x)`), for `tidy` to decide; given the
+    `types`, also a comparison of two ints that a known comparison of the same two decides (`c <= d` where
+    `c != d` is false)."""
     if guard in known:
         return TRUE
     if _negated(guard) in known:
         return FALSE
+    if isinstance(guard, Cmp) and types is not None:
+        return _ordered(guard, known, types) or guard
     if isinstance(guard, Not):
-        arg = with_known(guard.arg, known)
+        arg = with_known(guard.arg, known, types)
         return guard if arg is guard.arg else Not(arg)
     if isinstance(guard, BinOp):
-        left, right = with_known(guard.left, known), with_known(guard.right, known)
+        left, right = with_known(guard.left, known, types), with_known(guard.right, known, types)
         return guard if left is guard.left and right is guard.right else BinOp(guard.op, left, right)
     return guard
+
+
+_ORDERS = {"==": {"="}, "!=": {"<", ">"}, "<": {"<"}, "<=": {"<", "="}, ">": {">"}, ">=": {"=", ">"}}
+_FLIPPED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "==", "!=": "!="}
+
+
+def _ordered(cmp: Cmp, known: list[Expr], types: Mapping[str, Type]) -> Const | None:
+    """`cmp` of two ints decided by a known comparison (or a known false one) of the same two sides: each
+    comparison is the set of orders (less, equal, greater) it allows. Reals are left alone: a NaN is in no
+    order, so a false `x < y` does not make `x >= y` true."""
+    if "real" in (type_of(cmp.left, types), type_of(cmp.right, types)):
+        return None
+    asked = _ORDERS[cmp.op]
+    for fact in known:
+        held = _order_held(fact, cmp.left, cmp.right)
+        if held is not None and held <= asked:
+            return TRUE
+        if held is not None and not held & asked:
+            return FALSE
+    return None
+
+
+def _order_held(fact: Expr, left: Expr, right: Expr) -> set[str] | None:
+    """The orders of `left` to `right` that `fact` allows, if it compares the two (None if not)."""
+    negated = isinstance(fact, Not)
+    cmp = fact.arg if isinstance(fact, Not) else fact
+    if not isinstance(cmp, Cmp):
+        return None
+    if (cmp.left, cmp.right) == (left, right):
+        allowed = _ORDERS[cmp.op]
+    elif (cmp.left, cmp.right) == (right, left):
+        allowed = _ORDERS[_FLIPPED[cmp.op]]
+    else:
+        return None
+    return {"<", "=", ">"} - allowed if negated else allowed
